@@ -1,0 +1,1 @@
+"""CAM: tools, collision, roughing, finishing, verification, motion and the CLI."""

@@ -1,0 +1,115 @@
+"""The ``impeller-cam`` command line: one console script, one sub-command per stage.
+
+Each sub-command is a thin shell over a library function; heavy imports happen
+inside the command so ``impeller-cam --help`` and ``impeller-cam posts`` stay fast.
+Exit codes: 0 success, 2 bad input (one message naming file, field, value and what
+is accepted), 1 internal error.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from impeller_cam.errors import InputError
+
+app = typer.Typer(
+    name="impeller-cam",
+    help="CAD/CAM for centrifugal impellers: geometry, roughing, finishing, post, verification.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+@app.command("geometry")
+def geometry_command(
+    spec: Annotated[Path, typer.Argument(help="Impeller spec (TOML).")],
+    out: Annotated[Path, typer.Option("-o", "--out", help="Output folder.")],
+    tessellation: Annotated[
+        float, typer.Option(help="Linear deflection of the STL/mesh tessellation, mm.")
+    ] = 0.02,
+    render: Annotated[bool, typer.Option(help="Write the offscreen PNG render.")] = True,
+) -> None:
+    """Build the impeller: impeller.step, impeller.stl, geometry.json, impeller.png."""
+    from geometry.command import run_geometry
+
+    run_geometry(spec, out, tessellation=tessellation, render=render)
+
+
+@app.command("post")
+def post_command(
+    apt: Annotated[Path, typer.Argument(help="APT CLDATA file (workpiece frame).")],
+    machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML.")],
+    out: Annotated[Path, typer.Option("-o", "--out", help="NC program to write.")],
+    post: Annotated[
+        str | None,
+        typer.Option("--post", help="Post-processor name (see `impeller-cam posts`)."),
+    ] = None,
+    tcp: Annotated[bool, typer.Option("--tcp", help="Post for tool-centre-point control.")] = False,
+    tolerance: Annotated[
+        float, typer.Option("--tolerance", help="Chordal tolerance of the tool tip, mm.")
+    ] = 0.01,
+    angular_tolerance: Annotated[
+        float, typer.Option("--angular-tolerance", help="Largest rotary step per block, deg.")
+    ] = 0.5,
+    block_numbers: Annotated[bool, typer.Option(help="Number the blocks (N words).")] = False,
+    program_number: Annotated[
+        int | None, typer.Option(help="Program number (O word), dialects that use one.")
+    ] = None,
+) -> None:
+    """Post an APT file for a machine: atomic, deterministic NC output."""
+    from postproc.command import run_post
+
+    run_post(
+        apt,
+        machine,
+        out,
+        post=post,
+        tcp=tcp,
+        tolerance=tolerance,
+        angular_tolerance_deg=angular_tolerance,
+        block_numbers=block_numbers,
+        program_number=program_number,
+    )
+
+
+@app.command("posts")
+def posts_command() -> None:
+    """List the registered post-processors (built-ins and entry-point plug-ins)."""
+    from postproc.command import run_posts
+
+    run_posts()
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI and map errors to exit codes (2 bad input, 1 internal error)."""
+    try:
+        app(args=argv, standalone_mode=False)
+    except InputError as error:
+        typer.echo(f"impeller-cam: error: {error}", err=True)
+        return 2
+    except typer.Exit as done:
+        return int(done.exit_code)
+    except typer.Abort:
+        typer.echo("impeller-cam: aborted", err=True)
+        return 1
+    except Exception as error:  # click usage errors are ClickException
+        import click
+
+        if isinstance(error, click.ClickException):
+            error.show()
+            return 2
+        if os.environ.get("IMPELLER_CAM_DEBUG"):
+            raise
+        typer.echo(f"impeller-cam: internal error: {type(error).__name__}: {error}", err=True)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

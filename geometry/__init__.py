@@ -1,0 +1,1 @@
+"""Impeller geometry: camber data, parametric design, ruled surfaces, solids, meshes."""

@@ -1,0 +1,1 @@
+"""Post-processing: machines, kinematics, dialect plug-ins, APT CLDATA and NC I/O."""
