@@ -1,0 +1,365 @@
+"""Cutting tools as data: cutter, shank and holder as a stack of revolved segments.
+
+A tool library is a TOML file of ``[[tool]]`` tables (format in docs/formats.md);
+LinuxCNC tool tables (``.tbl``) are read too. A ``Tool`` is described in its own
+frame: tip at the origin, axis +Z towards the spindle, lengths in mm.
+
+The outline is a list of ``Segment`` frusta (radius ``r0`` at height ``z0`` to
+``r1`` at ``z1``) for the shank and holder; the cutter is a ball, flat or bull-nose
+end of radius R with corner radius rc, up to the flute length.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from impeller_cam.errors import InputError
+
+TOOL_SHAPES = ("ball", "flat", "bullnose")
+#: The library shipped with the project; ``-t NAME`` looks here.
+DEFAULT_LIBRARY = Path(__file__).resolve().parent.parent / "fixtures" / "tools" / "library.toml"
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A frustum of the tool outline along its axis.
+
+    Attributes
+    ----------
+    part : str
+        ``"shank"`` or ``"holder"``.
+    z0, z1 : float
+        Heights above the tip, mm, ``z0 < z1``.
+    r0, r1 : float
+        Radii at ``z0`` and ``z1``, mm.
+    """
+
+    part: str
+    z0: float
+    z1: float
+    r0: float
+    r1: float
+
+
+@dataclass(frozen=True)
+class Tool:
+    """A cutting tool in its holder.
+
+    Attributes
+    ----------
+    name : str
+    number : int
+        Tool number (T word, APT ``LOADTL``).
+    shape : str
+        ``"ball"``, ``"flat"`` or ``"bullnose"``.
+    diameter : float
+        Cutter diameter, mm.
+    corner_radius : float
+        Corner radius, mm (diameter/2 for a ball, 0 for a flat end mill).
+    flute_length : float
+        Cutting length from the tip, mm.
+    shank_diameter : float
+        Shank diameter, mm.
+    stickout : float
+        Gauge length from the tip to the holder nose, mm.
+    holder : tuple of Segment
+        Holder frusta from the nose upwards (heights from the tip).
+    spindle_rpm : float or None
+    feed : float or None
+        Cutting feed, mm/min.
+    taper_deg : float
+        Half-angle of a tapered neck between flutes and shank, deg (0: straight).
+    """
+
+    name: str
+    number: int
+    shape: str
+    diameter: float
+    corner_radius: float
+    flute_length: float
+    shank_diameter: float
+    stickout: float
+    holder: tuple[Segment, ...] = field(default_factory=tuple)
+    spindle_rpm: float | None = None
+    feed: float | None = None
+    taper_deg: float = 0.0
+
+    @property
+    def radius(self) -> float:
+        """Cutter radius R, mm."""
+        return 0.5 * self.diameter
+
+    @property
+    def length(self) -> float:
+        """Height of the top of the holder above the tip, mm."""
+        return self.holder[-1].z1 if self.holder else self.stickout
+
+    def shank_segments(self) -> tuple[Segment, ...]:
+        """Neck/shank frusta from the top of the flutes to the holder nose."""
+        r = self.radius
+        rs = 0.5 * self.shank_diameter
+        z = self.flute_length
+        segments: list[Segment] = []
+        if self.taper_deg > 0 and rs > r:
+            rise = (rs - r) / math.tan(math.radians(self.taper_deg))
+            top = min(z + rise, self.stickout)
+            r_top = r + (top - z) * math.tan(math.radians(self.taper_deg))
+            segments.append(Segment("shank", z, top, r, r_top))
+            z, r = top, r_top
+        if self.stickout > z:
+            segments.append(Segment("shank", z, self.stickout, rs, rs))
+        return tuple(segments)
+
+    def radius_at(self, height: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Outline radius of the cutter part at heights above the tip, mm.
+
+        Parameters
+        ----------
+        height : (n,) float64
+            Heights above the tip, 0 <= h <= flute_length.
+        """
+        h = np.asarray(height, dtype=np.float64)
+        r, rc = self.radius, self.corner_radius
+        inner = r - rc
+        below = np.clip(rc - h, 0.0, rc)
+        corner = inner + np.sqrt(np.maximum(rc * rc - below * below, 0.0))
+        return np.where(h >= rc, r, corner)
+
+    def outline(self, samples: int = 16) -> NDArray[np.float64]:
+        """``(k, 2)`` outline (radius, height) from the tip to the top of the holder."""
+        heights = np.linspace(0.0, self.corner_radius, samples)
+        points = [np.column_stack([self.radius_at(heights), heights])]
+        if self.corner_radius == 0:
+            points.insert(0, np.array([[0.0, 0.0]]))
+        points.append(np.array([[self.radius, self.flute_length]]))
+        for seg in (*self.shank_segments(), *self.holder):
+            points.append(np.array([[seg.r0, seg.z0], [seg.r1, seg.z1]]))
+        return np.vstack(points)
+
+
+def _number(
+    table: dict[str, Any],
+    key: str,
+    path: Path,
+    where: str,
+    minimum: float = 0.0,
+    default: Any = ...,
+) -> float:
+    if key not in table:
+        if default is ...:
+            raise InputError("required field is missing", file=path, field=f"{where}.{key}")
+        return float(default)
+    value = table[key]
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise InputError(
+            "must be a finite number",
+            file=path,
+            field=f"{where}.{key}",
+            value=value,
+            accepted=f"a number > {minimum:g}",
+        )
+    if value <= minimum:
+        raise InputError(
+            "out of range",
+            file=path,
+            field=f"{where}.{key}",
+            value=value,
+            accepted=f"a number > {minimum:g}",
+        )
+    return float(value)
+
+
+def _tool_from_table(table: dict[str, Any], path: Path, index: int) -> Tool:
+    name = table.get("name")
+    where = f"tool[{index}]" if not isinstance(name, str) else f"tool '{name}'"
+    if not isinstance(name, str) or not name:
+        raise InputError("every tool needs a name", file=path, field=f"{where}.name", value=name)
+    shape = table.get("type", "ball")
+    if shape not in TOOL_SHAPES:
+        raise InputError(
+            "unknown tool type",
+            file=path,
+            field=f"{where}.type",
+            value=shape,
+            accepted=" or ".join(TOOL_SHAPES),
+        )
+    diameter = _number(table, "diameter_mm", path, where)
+    radius = 0.5 * diameter
+    if shape == "ball":
+        corner = radius
+    elif shape == "flat":
+        corner = 0.0
+    else:
+        corner = _number(table, "corner_radius_mm", path, where)
+        if corner >= radius:
+            raise InputError(
+                "bull-nose corner radius must be smaller than the radius",
+                file=path,
+                field=f"{where}.corner_radius_mm",
+                value=corner,
+                accepted=f"0 < corner < {radius:g}",
+            )
+    flute = _number(table, "flute_length_mm", path, where)
+    shank_d = _number(table, "shank_diameter_mm", path, where, default=diameter)
+    stickout = _number(table, "stickout_mm", path, where)
+    if stickout < flute or flute < corner:
+        raise InputError(
+            "stick-out must cover the flutes and the flutes the corner",
+            file=path,
+            field=f"{where}.stickout_mm",
+            value=stickout,
+            accepted=f"corner {corner:g} <= flute {flute:g} <= stick-out",
+        )
+    number = table.get("number", index + 1)
+    if isinstance(number, bool) or not isinstance(number, int) or number < 0:
+        raise InputError(
+            "tool number must be a non-negative integer",
+            file=path,
+            field=f"{where}.number",
+            value=number,
+        )
+    holder: list[Segment] = []
+    z = stickout
+    for k, part in enumerate(table.get("holder", [])):
+        here = f"{where}.holder[{k}]"
+        length = _number(part, "length_mm", path, here)
+        d0 = _number(part, "bottom_diameter_mm", path, here, default=part.get("diameter_mm", ...))
+        d1 = _number(part, "top_diameter_mm", path, here, default=part.get("diameter_mm", d0))
+        holder.append(Segment("holder", z, z + length, 0.5 * d0, 0.5 * d1))
+        z += length
+    rpm = table.get("spindle_rpm")
+    feed = table.get("feed_mm_min")
+    return Tool(
+        name=name,
+        number=int(number),
+        shape=shape,
+        diameter=diameter,
+        corner_radius=corner,
+        flute_length=flute,
+        shank_diameter=shank_d,
+        stickout=stickout,
+        holder=tuple(holder),
+        spindle_rpm=None if rpm is None else _number(table, "spindle_rpm", path, where),
+        feed=None if feed is None else _number(table, "feed_mm_min", path, where),
+        taper_deg=_number(table, "taper_deg", path, where, minimum=-1e-12, default=0.0),
+    )
+
+
+def load_tool_library(path: str | Path) -> dict[str, Tool]:
+    """Read a TOML tool library (``[[tool]]`` tables) or a LinuxCNC ``.tbl``.
+
+    Returns
+    -------
+    dict
+        Tools by name (LinuxCNC tools are named ``T<number>``).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(
+            "tool library not found",
+            file=path,
+            value=str(path),
+            accepted="a TOML tool library or a LinuxCNC .tbl file",
+        )
+    if path.suffix == ".tbl":
+        return read_linuxcnc_tbl(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
+        raise InputError(f"not valid TOML: {error}", file=path) from None
+    tables = data.get("tool")
+    if not isinstance(tables, list) or not tables:
+        raise InputError(
+            "no [[tool]] tables", file=path, field="tool", accepted="one or more [[tool]] tables"
+        )
+    tools: dict[str, Tool] = {}
+    for i, table in enumerate(tables):
+        tool = _tool_from_table(table, path, i)
+        if tool.name in tools:
+            raise InputError(
+                "duplicate tool name",
+                file=path,
+                field=f"tool[{i}].name",
+                value=tool.name,
+                accepted="unique names",
+            )
+        tools[tool.name] = tool
+    return tools
+
+
+_TBL_WORD = re.compile(r"([TPDZXYR])\s*([-+]?\d*\.?\d+(?:[eE][-+]?\d+)?)", re.IGNORECASE)
+
+
+def read_linuxcnc_tbl(path: Path) -> dict[str, Tool]:
+    """Read a LinuxCNC tool table: ``T<n> P<pocket> D<diameter> Z<length> ;comment``.
+
+    LinuxCNC tables carry no shape or holder: a tool whose comment contains
+    ``ball`` is a ball end mill, others flat; the flute length is taken as twice
+    the diameter and the stick-out as the Z length (or 4 diameters when Z is 0).
+    """
+    tools: dict[str, Tool] = {}
+    for line_number, raw in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        body, _, comment = raw.partition(";")
+        words = {k.upper(): float(v) for k, v in _TBL_WORD.findall(body)}
+        if not body.strip():
+            continue
+        if "T" not in words or "D" not in words or words["D"] <= 0:
+            raise InputError(
+                "a tool line needs T and a positive D",
+                file=path,
+                field=f"line {line_number}",
+                value=raw.strip(),
+                accepted="T<number> P<pocket> D<diameter> [Z<length>] [;comment]",
+            )
+        number, diameter = int(words["T"]), words["D"]
+        ball = "ball" in comment.lower()
+        stickout = words.get("Z", 0.0) or 4.0 * diameter
+        tools[f"T{number}"] = Tool(
+            name=f"T{number}",
+            number=number,
+            shape="ball" if ball else "flat",
+            diameter=diameter,
+            corner_radius=0.5 * diameter if ball else 0.0,
+            flute_length=min(2.0 * diameter, stickout),
+            shank_diameter=diameter,
+            stickout=stickout,
+        )
+    if not tools:
+        raise InputError("no tools in table", file=path, accepted="lines T<n> P<n> D<d>")
+    return tools
+
+
+def resolve_tool(argument: str, library: str | Path | None = None) -> Tool:
+    """Resolve a ``-t`` argument: ``NAME``, ``LIBRARY.toml:NAME`` or ``LIBRARY.toml``.
+
+    A bare ``NAME`` is looked up in ``library`` (default: the bundled library). A
+    library path without a name must hold exactly one tool.
+    """
+    path_part, _, name = argument.rpartition(":") if ":" in argument else ("", "", argument)
+    if not path_part and Path(argument).suffix in {".toml", ".tbl"}:
+        path_part, name = argument, ""
+    tools = load_tool_library(Path(path_part) if path_part else Path(library or DEFAULT_LIBRARY))
+    source = path_part or str(library or DEFAULT_LIBRARY)
+    if not name:
+        if len(tools) != 1:
+            raise InputError(
+                "the library holds several tools: name one",
+                file=source,
+                field="-t",
+                value=argument,
+                accepted=f"{argument}:NAME with NAME in {', '.join(sorted(tools))}",
+            )
+        return next(iter(tools.values()))
+    if name not in tools:
+        raise InputError(
+            "no such tool", file=source, field="-t", value=name, accepted=", ".join(sorted(tools))
+        )
+    return tools[name]
