@@ -1,0 +1,30 @@
+"""Post-processor plug-ins (dialects) and their registry.
+
+Built-ins: ``linuxcnc`` and ``fanuc``. Third-party dialects register through the
+entry-point group ``impeller_cam.postprocessors`` (see docs/postprocessors.md).
+"""
+
+from __future__ import annotations
+
+from postproc.posts import fanuc, linuxcnc  # noqa: F401  (register the built-ins)
+from postproc.posts.base import (
+    ENTRY_POINT_GROUP,
+    PostOptions,
+    PostProcessor,
+    available_posts,
+    get_post,
+    register_post,
+    register_unavailable,
+)
+from postproc.posts.gcode import GCodeWriter
+
+__all__ = [
+    "ENTRY_POINT_GROUP",
+    "GCodeWriter",
+    "PostOptions",
+    "PostProcessor",
+    "available_posts",
+    "get_post",
+    "register_post",
+    "register_unavailable",
+]

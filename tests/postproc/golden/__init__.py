@@ -1,0 +1,1 @@
+"""Golden NC programs of the post-processor tests (see cases.py, regenerate.py)."""
