@@ -34,11 +34,48 @@ def geometry_command(
         float, typer.Option(help="Linear deflection of the STL/mesh tessellation, mm.")
     ] = 0.02,
     render: Annotated[bool, typer.Option(help="Write the offscreen PNG render.")] = True,
+    fillets: Annotated[
+        bool,
+        typer.Option(help="Build the blade-to-hub fillets (--no-fillets: a solid without them)."),
+    ] = True,
 ) -> None:
     """Build the impeller: impeller.step, impeller.stl, geometry.json, impeller.png."""
     from geometry.command import run_geometry
 
-    run_geometry(spec, out, tessellation=tessellation, render=render)
+    run_geometry(spec, out, tessellation=tessellation, render=render, fillets=fillets)
+
+
+@app.command("finish")
+def finish_command(
+    spec: Annotated[Path, typer.Argument(help="Impeller spec (TOML).")],
+    machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML.")],
+    tool: Annotated[str, typer.Option("-t", "--tool", help="NAME or LIBRARY.toml:NAME.")],
+    out: Annotated[Path, typer.Option("-o", "--out", help="Output folder.")],
+) -> None:
+    """Five-axis finishing: APT per operation, finish.json, A/C displacement plots."""
+    from cam.finishing.command import run_finish
+
+    run_finish(spec, machine, tool, out)
+
+
+@app.command("verify")
+def verify_command(
+    programs: Annotated[list[Path], typer.Argument(help="NC programs, run in order.")],
+    machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML.")],
+    tool: Annotated[str, typer.Option("-t", "--tool", help="NAME or LIBRARY.toml:NAME.")],
+    stock: Annotated[
+        str, typer.Option("--stock", help="cylinder:D,H | spec TOML (its blank) | STL | .npz")
+    ],
+    out: Annotated[Path, typer.Option("-o", "--out", help="Output folder.")],
+    design: Annotated[
+        Path | None, typer.Option("--design", help="Impeller spec or mesh to check against.")
+    ] = None,
+    resolution: Annotated[float, typer.Option(help="Dexel spacing, mm.")] = 0.1,
+) -> None:
+    """Material-removal verification of NC programs: verify.json, report.html, JUnit."""
+    from cam.verify.command import run_verify
+
+    run_verify(programs, machine, tool, stock, design, resolution, out)
 
 
 @app.command("post")
@@ -84,6 +121,15 @@ def posts_command() -> None:
     from postproc.command import run_posts
 
     run_posts()
+
+
+def _mount_motion() -> None:
+    from cam.motion.cli import motion_app
+
+    app.add_typer(motion_app, name="motion")
+
+
+_mount_motion()
 
 
 def main(argv: list[str] | None = None) -> int:

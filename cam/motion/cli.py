@@ -1,0 +1,293 @@
+"""``impeller-cam motion ...``: S-curve, positioning-time search, servo, cycle time.
+
+A typer sub-app; the lead mounts it with ``app.add_typer(motion_app, name="motion")``.
+Module-level imports stay light (typer only); numpy, scipy and dask load inside the
+commands. Every command prints a short text summary, or one JSON object with
+``--json``. Bad input raises ``InputError`` (exit code 2 through ``cam.cli.main``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+motion_app = typer.Typer(
+    name="motion",
+    help="Machine motion: S-curve indexing, positioning-time search, servo lag, cycle time.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+JsonFlag = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
+
+
+def _emit(data: dict[str, Any], as_json: bool, lines: list[str]) -> None:
+    if as_json:
+        typer.echo(json.dumps(data, indent=2, sort_keys=True, allow_nan=False))
+    else:
+        for line in lines:
+            typer.echo(line)
+
+
+def _finite(value: float) -> float | None:
+    return value if math.isfinite(value) else None
+
+
+@motion_app.command("scurve")
+def scurve_command(
+    stroke: Annotated[float, typer.Option("--stroke", help="Move length, mm.")],
+    vmax: Annotated[float, typer.Option("--vmax", help="Maximum velocity, mm/s.")],
+    amax_up: Annotated[float, typer.Option("--amax-up", help="Maximum acceleration, mm/s^2.")],
+    amax_down: Annotated[
+        float, typer.Option("--amax-down", help="Maximum deceleration (magnitude), mm/s^2.")
+    ],
+    s_factor: Annotated[float, typer.Option("--s-factor", help="S factor (tj = S x period).")],
+    pid_period: Annotated[
+        float, typer.Option("--pid-period", help="PID update period, s.")
+    ] = 250e-6,
+    as_json: JsonFlag = False,
+) -> None:
+    """Plan one seven-segment asymmetric S-curve move."""
+    from cam.motion.scurve import plan_scurve
+
+    profile = plan_scurve(stroke, vmax, amax_up, amax_down, s_factor, pid_period)
+    data = {
+        "duration_s": float(profile.duration[0]),
+        "peak_velocity": float(profile.peak_velocity[0]),
+        "peak_acceleration": float(profile.peak_acceleration[0]),
+        "peak_deceleration": float(profile.peak_deceleration[0]),
+        "segment_durations_s": [float(v) for v in profile.durations[0]],
+        "jerk_time_s": s_factor * pid_period,
+        "reaches_vmax": bool(profile.peak_velocity[0] >= vmax * (1 - 1e-12)),
+        "units": {"peak_velocity": "mm/s", "peak_acceleration": "mm/s^2",
+                  "peak_deceleration": "mm/s^2"},
+    }
+    _emit(data, as_json, [
+        f"duration           {data['duration_s']:.6f} s",
+        f"peak velocity      {data['peak_velocity']:.3f} mm/s",
+        f"peak acceleration  {data['peak_acceleration']:.1f} mm/s^2",
+        f"peak deceleration  {data['peak_deceleration']:.1f} mm/s^2",
+    ])
+
+
+@motion_app.command("optimize")
+def optimize_command(
+    plant: Annotated[Path, typer.Option("--plant", help="Plant TOML (TDOF model).")],
+    stroke: Annotated[float, typer.Option("--stroke", help="Move length, mm.")],
+    s_min: Annotated[float, typer.Option(help="Smallest S factor.")] = 0.0,
+    s_max: Annotated[float, typer.Option(help="Largest S factor.")] = 115.0,
+    s_step: Annotated[float, typer.Option(help="S factor step.")] = 2.5,
+    a_min: Annotated[float, typer.Option(help="Smallest Amaxu and |Amaxd|, mm/s^2.")] = 10000.0,
+    a_max: Annotated[float, typer.Option(help="Largest Amaxu and |Amaxd|, mm/s^2.")] = 30000.0,
+    a_step: Annotated[float, typer.Option(help="Acceleration step, mm/s^2.")] = 500.0,
+    v_min: Annotated[float, typer.Option(help="Smallest Vmax, mm/s.")] = 200.0,
+    v_max: Annotated[float, typer.Option(help="Largest Vmax, mm/s.")] = 500.0,
+    v_step: Annotated[float, typer.Option(help="Vmax step, mm/s.")] = 5.0,
+    scheduler: Annotated[
+        str | None, typer.Option("--scheduler", help="Address of a running Dask scheduler.")
+    ] = None,
+    workers: Annotated[
+        int, typer.Option(help="Local Dask worker processes (0: no Dask, this process).")
+    ] = 2,
+    plots: Annotated[
+        Path | None, typer.Option("--plots", help="Folder for fig9_time_vs_s.png and "
+                                  "fig10_time_over_av.png.")
+    ] = None,
+    as_json: JsonFlag = False,
+) -> None:
+    """Search (Amaxu, Amaxd, Vmax, S) for the shortest positioning time (seed 000)."""
+    from cam.motion.optimise import Grid, optimise, value_range
+    from cam.motion.plant import load_plant
+    from cam.motion.positioning import settling_from_dict
+
+    model, document = load_plant(plant)
+    settling = settling_from_dict(document, plant)
+    accel = value_range(a_min, a_max, a_step, "--a-min/--a-max/--a-step")
+    grid = Grid(value_range(s_min, s_max, s_step, "--s-min/--s-max/--s-step"), accel,
+                accel.copy(), value_range(v_min, v_max, v_step, "--v-min/--v-max/--v-step"))
+    import sys
+
+    bar = None
+    progress = None
+    if sys.stderr.isatty():  # a progress bar for people, silence for CI and pipes
+        from rich.progress import Progress
+
+        bar = Progress(transient=True)
+        task = bar.add_task(f"{grid.size} profiles", total=None)
+
+        def progress(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+
+        bar.start()
+    try:
+        result = optimise(model, stroke, grid, settling, pid_period=settling.dt,
+                          scheduler=scheduler, workers=workers, progress=progress)
+    finally:
+        if bar is not None:
+            bar.stop()
+    data = result.as_dict()
+    data["settling"] = {"output": settling.output, "band": settling.band,
+                        "pid_period_s": settling.dt}
+    if plots is not None:
+        from cam.motion.plots import plot_time_over_av, plot_time_vs_s
+
+        data["plots"] = [str(plot_time_vs_s(result, plots / "fig9_time_vs_s.png")),
+                         str(plot_time_over_av(result, plots / "fig10_time_over_av.png"))]
+    times = data["positioning_time_s"]
+    best, sym = result.best, result.best_symmetric
+    _emit(data, as_json, [
+        f"profiles searched   {result.grid.size}",
+        f"best                {times['best']:.4f} s  (Amaxu {best.amax_up:.0f}, "
+        f"Amaxd {best.amax_down:.0f} mm/s^2, Vmax {best.vmax:.0f} mm/s, S {best.s_factor:g})",
+        f"best symmetric      {times['best_symmetric']:.4f} s  (A {sym.amax_up:.0f} mm/s^2, "
+        f"Vmax {sym.vmax:.0f} mm/s, S {sym.s_factor:g})",
+        f"all maxima, S = 22  {times['case_max']:.4f} s",
+        f"improvement         {100 * data['improvement_vs_case_max']:.1f} %",
+    ])
+
+
+@motion_app.command("servo")
+def servo_command(
+    machine: Annotated[Path, typer.Option("--machine", "-m", help="Machine TOML.")],
+    axis: Annotated[str, typer.Option("--axis", help="Rotary axis with servo data.")] = "C",
+    linear: Annotated[
+        list[str] | None, typer.Option("--linear", help="Linear axes to match (repeatable).")
+    ] = None,
+    omega: Annotated[
+        list[float] | None,
+        typer.Option("--omega", help="Angular velocities, rad/s (default: the paper's "
+                     "0.5 pi .. 4 pi).")
+    ] = None,
+    feed: Annotated[
+        float, typer.Option("--feed", help="Feed at the cutting point F_C, mm/min.")
+    ] = 200.0,
+    program: Annotated[
+        Path | None, typer.Option("--program", help="NC program: predict tool-tip deviation.")
+    ] = None,
+    as_json: JsonFlag = False,
+) -> None:
+    """Best K_FFP per linear axis, torque saturation and smallest radius (seed 004)."""
+    import numpy as np
+
+    from cam.motion.feeddrive import (
+        alpha_th,
+        axis_from_servo,
+        best_kffp,
+        beta_th,
+        saturation_omega,
+        smallest_radius,
+    )
+    from impeller_cam.errors import InputError
+    from postproc.machine import load_machine
+
+    mach = load_machine(machine)
+    specs = mach.axes
+    if axis not in specs or not specs[axis].servo:
+        raise InputError("axis has no servo table", file=machine, field=f"axes.{axis}.servo",
+                         value=axis, accepted=", ".join(n for n in specs if specs[n].servo))
+    rot = axis_from_servo(axis, dict(specs[axis].servo), specs[axis].rotary, machine)
+    names = linear if linear else [n for n in specs if specs[n].servo and not specs[n].rotary]
+    lin = {}
+    for name in names:
+        if name not in specs or not specs[name].servo:
+            raise InputError("axis has no servo table", file=machine,
+                             field=f"axes.{name}.servo", value=name)
+        lin[name] = axis_from_servo(name, dict(specs[name].servo), specs[name].rotary, machine)
+    omegas = omega if omega else list(np.pi * np.array([0.5, 1.0, 1.5, 2.0, 3.0, 4.0]))
+    table = []
+    for w in omegas:
+        row: dict[str, Any] = {"omega_rad_s": float(w), "alpha_th_rad": float(alpha_th(rot, w))}
+        for name, model in lin.items():
+            row[f"beta_th_{name}_rad"] = float(beta_th(model, w))
+            try:
+                row[f"best_kffp_{name}_percent"] = best_kffp(rot, model, w)
+            except InputError:
+                row[f"best_kffp_{name}_percent"] = None
+        table.append(row)
+    data: dict[str, Any] = {"axis": axis, "best_kffp": table, "feed_mm_min": feed}
+    lines = [f"axis {axis}: K_FFP {rot.k_ffp:g} %, J + J1 = {rot.total_inertia:g} kg m^2"]
+    if math.isfinite(rot.torque_limit):
+        w_sat = saturation_omega(rot)
+        data["saturation_omega_rad_s"] = w_sat
+        data["smallest_radius_mm"] = smallest_radius(w_sat, feed)
+        lines.append(f"torque saturation at omega = {w_sat:.3f} rad/s; smallest radius "
+                     f"R_C = {data['smallest_radius_mm']:.3f} mm at F_C = {feed:g} mm/min")
+    for row in table:
+        best = ", ".join(f"{n} {row[f'best_kffp_{n}_percent']:.2f} %"
+                         if row[f"best_kffp_{n}_percent"] is not None else f"{n} -"
+                         for n in lin)
+        lines.append(f"omega {row['omega_rad_s']:7.3f} rad/s: Best K_FFP {best}")
+    if program is not None:
+        from cam.motion.program_servo import simulate_program
+        from postproc.nc_reader import read_nc
+
+        report = simulate_program(read_nc(program), mach)
+        data["program"] = report.as_dict()
+        lines.append(f"program: max tool-tip deviation "
+                     f"{data['program']['max_tip_deviation_mm']:.4f} mm at line "
+                     f"{data['program']['worst_line']}")
+    _emit(data, as_json, lines)
+
+
+@motion_app.command("time")
+def time_command(
+    program: Annotated[Path, typer.Argument(help="NC program.")],
+    machine: Annotated[Path, typer.Option("--machine", "-m", help="Machine TOML.")],
+    as_json: JsonFlag = False,
+) -> None:
+    """Cycle time of an NC program under the machine's velocity/acceleration/jerk limits."""
+    from cam.motion.cycle_time import format_seconds, program_cycle_time
+    from cam.motion.program_servo import program_joints
+    from postproc.machine import load_machine
+    from postproc.nc_reader import read_nc
+
+    mach = load_machine(machine)
+    prog = read_nc(program)
+    times = program_cycle_time(prog, mach, program_joints(prog, mach))
+    data = times.as_dict()
+    data["program"] = str(program)
+    _emit(data, as_json, [
+        f"blocks             {data['blocks']}",
+        f"cycle time         {format_seconds(times.limited_total)} "
+        f"({times.limited_total:.2f} s, jerk-limited, exact stop)",
+        f"nominal time       {format_seconds(times.nominal_total)} "
+        f"({times.nominal_total:.2f} s, length / feed)",
+    ])
+
+
+@motion_app.command("identify")
+def identify_command(
+    plant: Annotated[Path, typer.Option("--plant", help="Plant TOML: starting values.")],
+    response: Annotated[Path, typer.Option("--response", help="Measured response CSV.")],
+    free: Annotated[
+        list[str] | None,
+        typer.Option("--free", help="Parameter to fit (repeatable; default: stiffness, "
+                     "damping, servo_stiffness, servo_damping).")
+    ] = None,
+    as_json: JsonFlag = False,
+) -> None:
+    """Fit TDOF plant parameters to a measured acceleration or position response."""
+    from cam.motion.identify import DEFAULT_FREE, identify, read_response_csv
+    from cam.motion.plant import PARAMETERS, load_plant
+
+    start, _ = load_plant(plant)
+    fit = identify(read_response_csv(response), start, tuple(free) if free else DEFAULT_FREE)
+    values = {name: float(getattr(fit.plant, name)) for name in PARAMETERS}
+    frequencies = [float(f) for f in fit.plant.natural_frequencies()]
+    data: dict[str, Any] = {
+        "plant": values,
+        "free": list(fit.free),
+        "rms_residual": fit.rms_residual,
+        "relative_rms": fit.relative_rms,
+        "natural_frequencies_hz": frequencies,
+        "damping_ratios": [float(z) for z in fit.plant.damping_ratios()],
+    }
+    lines = ["[plant]"] + [f"{name} = {value:.6g}" for name, value in values.items()]
+    lines.append(f"# relative RMS residual {fit.relative_rms:.4f}; modes "
+                 + ", ".join(f"{f:.2f} Hz" for f in frequencies))
+    _emit(data, as_json, lines)

@@ -1,0 +1,103 @@
+"""The paper's synchronisation test: shape error of a circle cut under a constant feed
+speed vector at the cutting point (seed 004, sections 2.3, 3 and 4.1-4.2).
+
+The C table turns at ``omega`` (command ``omega t`` from rest) while X and Y move the
+tool on a circle of radius ``R_W`` about the C axis (``R_W cos(omega t)``,
+``R_W sin(omega t)``), so that the workpiece contour of radius ``R_C`` is cut with
+``F_C / R_C = F / R_W`` (Eq. 3). With the measured (here: simulated) positions
+
+    X_R = R_W cos(theta) + R_C,  Y_R = R_W sin(theta)     commanded cutting point,
+                                                           carried by the actual C
+    X_L = x + R_C,               Y_L = y                   the tool's cutting point
+    eps = (X_L - X_R, Y_L - Y_R)                           Eq. (4)
+    (R_C - dR_C)^2 = (R_C - eps_X)^2 + eps_Y^2             Eq. (5)
+
+and ``dR_C ~ -(alpha - beta) R_W sin(omega t) - dR cos(omega t)`` (Eq. 7). As in the
+paper, the radius decrease ``dR`` is compensated in the command (``R_W / |G(j omega)|``
+per linear axis), so what remains is the relative angle difference. The amplitude is
+half the peak-to-peak shape error over the last full period (steady state).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam.motion.feeddrive import DEFAULT_DT, FeedDriveAxis, simulate_axis, transfer
+
+
+@dataclass(frozen=True)
+class CircleTest:
+    """Result of one simulated circle test.
+
+    Attributes
+    ----------
+    time : (n,) float64
+        s.
+    shape_error : (n,) float64
+        dR_C(t), mm.
+    angle_difference : (n,) float64
+        alpha - beta: the tool's angular lag about the C axis minus the table's, rad.
+    amplitude : float
+        Half peak-to-peak of the shape error over the last period, mm.
+    saturated : bool
+        The rotary axis hit its torque limit.
+    """
+
+    time: NDArray[np.float64]
+    shape_error: NDArray[np.float64]
+    angle_difference: NDArray[np.float64]
+    amplitude: float
+    saturated: bool
+
+
+def circle_test(
+    rotary: FeedDriveAxis,
+    x_axis: FeedDriveAxis,
+    y_axis: FeedDriveAxis,
+    omega: float,
+    r_c: float = 5.0,
+    r_w: float = 8.0,
+    settle: float = 0.6,
+    dt: float = DEFAULT_DT,
+    compensate_radius: bool = True,
+) -> CircleTest:
+    """Simulate the paper's test at angular velocity ``omega`` (rad/s).
+
+    Parameters
+    ----------
+    rotary, x_axis, y_axis : FeedDriveAxis
+        Servo models (with the K_FFP to test).
+    omega : float
+        rad/s.
+    r_c, r_w : float
+        Workpiece radius of curvature and tool-centre radius, mm (paper: 5 and 8).
+    settle : float
+        Time allowed for the start transient before the measured period, s.
+    dt : float
+        Simulation step, s.
+    compensate_radius : bool
+        Scale each linear command by ``1 / |G(j omega)|`` (the paper's radius
+        compensation).
+    """
+    period = 2.0 * np.pi / omega
+    n = int(np.ceil((settle + period) / dt)) + 1
+    t = np.arange(n, dtype=np.float64) * dt
+    theta_cmd = omega * t
+    gain_x = abs(complex(transfer(x_axis, 1j * omega))) if compensate_radius else 1.0
+    gain_y = abs(complex(transfer(y_axis, 1j * omega))) if compensate_radius else 1.0
+    rot = simulate_axis(rotary, theta_cmd, dt)
+    x = simulate_axis(x_axis, r_w / gain_x * np.cos(theta_cmd), dt).position
+    y = simulate_axis(y_axis, r_w / gain_y * np.sin(theta_cmd), dt).position
+    theta = rot.position
+    eps_x = (x + r_c) - (r_w * np.cos(theta) + r_c)
+    eps_y = y - r_w * np.sin(theta)
+    shape = r_c - np.sqrt((r_c - eps_x) ** 2 + eps_y**2)
+    tool_angle = np.unwrap(np.arctan2(y, x))
+    difference = (theta_cmd - theta) - (theta_cmd - tool_angle)
+    last = t >= t[-1] - period
+    amplitude = 0.5 * float(np.ptp(shape[last]))
+    return CircleTest(time=t, shape_error=shape, angle_difference=difference,
+                      amplitude=amplitude, saturated=bool(rot.saturated.any()))
