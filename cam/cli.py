@@ -92,7 +92,7 @@ def post_command(
         float, typer.Option("--tolerance", help="Chordal tolerance of the tool tip, mm.")
     ] = 0.01,
     angular_tolerance: Annotated[
-        float, typer.Option("--angular-tolerance", help="Largest rotary step per block, deg.")
+        float, typer.Option("--angular-tolerance", help="Angular tolerance of the tool axis between two CL records, deg.")
     ] = 0.5,
     block_numbers: Annotated[bool, typer.Option(help="Number the blocks (N words).")] = False,
     program_number: Annotated[

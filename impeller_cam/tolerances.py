@@ -22,7 +22,9 @@ class Tolerances:
         Post-processing chordal tolerance in mm: the tool tip must stay this close
         to the straight CL segment between two APT records. 0.01 mm.
     angular : float
-        Largest rotary-axis step inside one linearised block, radians. 0.5 deg.
+        Angular tolerance of linearisation, radians: the tool axis of the
+        linearised motion stays this close to the great circle joining the two CL
+        records' axes. 0.5 deg.
     tessellation : float
         Linear deflection for meshing B-rep faces, mm. 0.02 mm.
     tessellation_angle : float
