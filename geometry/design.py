@@ -1,0 +1,608 @@
+"""Parametric impeller design: camber data from design parameters (issue 2).
+
+A designer describes an impeller by
+
+* the meridional hub and shroud contours as Bezier control polygons in ``(z, r)``
+  (inlet to outlet; the blade spans a fraction of each contour's length),
+* the camber angle law along the normalised meridional length ``m`` in [0, 1] of the
+  blade on each contour, either the **wrap angle** ``theta(m)`` or the **blade angle**
+  ``beta(m)`` (measured from the meridional direction, positive towards +theta),
+  integrated to ``theta(m) = theta_LE + int_0^m tan(beta) / r dm`` (m in mm there),
+* the thickness law and the rest of the spec (edges, fillet, splitters, allowances),
+* optionally ``midspan_wrap_offset``: a mid-span camber line whose wrap differs from
+  the ruled blade's by this angle, which makes the blade non-ruled.
+
+``generate`` turns the parameters into arrays (``GeneratedDesign``) and
+``write_design`` writes the spec TOML and camber CSVs a user would write by hand
+(format: docs/formats/impeller-spec.md), atomically and with deterministic number
+formatting. ``load_design`` reads the TOML form of the parameters (``design.toml``).
+Angles are radians here and degrees in the files.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.integrate import cumulative_trapezoid
+from scipy.interpolate import PchipInterpolator
+
+from geometry.camber import cylindrical_to_cartesian
+from geometry.spec import EDGE_SHAPES, MIN_SPLINE_POINTS, ImpellerSpec
+from geometry.validate import check_spec_geometry
+from impeller_cam.atomic import staged_directory, write_text_atomic
+from impeller_cam.errors import InputError
+
+__all__ = [
+    "ANGLE_LAWS",
+    "DesignParameters",
+    "GeneratedDesign",
+    "bezier",
+    "generate",
+    "integrate_blade_angle",
+    "load_design",
+    "write_design",
+    "write_generated",
+]
+
+ANGLE_LAWS = ("wrap", "blade_angle")
+#: Samples along each Bezier contour for arc length and the blade-angle integral.
+DENSE_SAMPLES = 4001
+#: Decimals written for every length (mm) and angle (deg) in the spec and CSVs.
+DECIMALS = 6
+#: Largest |blade angle| accepted, deg (tan(beta) grows without bound at 90 deg).
+MAX_BLADE_ANGLE_DEG = 85.0
+_NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
+_FILES = {"shroud": "shroud_camber.csv", "hub": "hub_camber.csv", "midspan": "mid_camber.csv"}
+
+Points = tuple[tuple[float, float], ...]
+Floats = tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class DesignParameters:
+    """Design parameters of one impeller (mm, radians). Validated on construction.
+
+    Attributes
+    ----------
+    name : str
+        Impeller name (letters, digits, ``_ . -``).
+    blades : int
+        Main blades, 1..64.
+    hub_control, shroud_control : tuple of (z, r)
+        Bezier control polygons of the meridional contours, mm, inlet to outlet
+        (hub: nose to rim; shroud: inlet tip to outlet), >= 2 points each.
+    hub_blade, shroud_blade : (float, float)
+        Leading and trailing edge of the blade as fractions of each contour's length.
+    contour_points, camber_points : int
+        Points written for each contour (spec.toml) and each camber line (CSV).
+    angle_law : str
+        ``"wrap"``: ``*_angle`` are theta at the knots; ``"blade_angle"``: they are beta.
+    shroud_knots, hub_knots : tuple of float
+        Knots in normalised meridional length m, increasing from 0 to 1.
+    shroud_angle, hub_angle : tuple of float
+        theta (wrap law) or beta (blade-angle law) at the knots, rad; PCHIP between.
+    shroud_theta_le, hub_theta_le : float
+        theta at the leading edge for the blade-angle law, rad.
+    midspan_wrap_offset : float
+        Extra wrap of the mid-span camber line, rad; 0 gives a ruled blade.
+    bore_radius, thickness_u, thickness_mm, leading_edge, trailing_edge,
+    fillet_radius, splitters, splitter_start, stock_allowance, finishing_allowance
+        Passed to the spec unchanged (see ``ImpellerSpec``); a constant thickness is
+        ``thickness_u = (0, 1)`` with two equal values.
+    """
+
+    name: str
+    blades: int
+    hub_control: Points
+    shroud_control: Points
+    shroud_knots: Floats
+    shroud_angle: Floats
+    hub_knots: Floats
+    hub_angle: Floats
+    bore_radius: float
+    thickness_mm: Floats
+    thickness_u: Floats = (0.0, 1.0)
+    angle_law: str = "wrap"
+    hub_blade: tuple[float, float] = (0.0, 1.0)
+    shroud_blade: tuple[float, float] = (0.0, 1.0)
+    contour_points: int = 41
+    camber_points: int = 21
+    shroud_theta_le: float = 0.0
+    hub_theta_le: float = 0.0
+    midspan_wrap_offset: float = 0.0
+    leading_edge: str = "round"
+    trailing_edge: str = "cut"
+    fillet_radius: float = 0.0
+    splitters: int = 0
+    splitter_start: float = 0.35
+    stock_allowance: float = 2.0
+    finishing_allowance: float = 0.5
+
+    def __post_init__(self) -> None:
+        _validate(self)
+
+
+@dataclass(frozen=True)
+class GeneratedDesign:
+    """Arrays made from ``DesignParameters`` (what the spec files will hold).
+
+    Attributes
+    ----------
+    params : DesignParameters
+    hub_contour, shroud_contour : (k, 2) float64
+        Meridional contours ``z, r``, mm.
+    shroud_camber, hub_camber : (n, 3) float64
+        Camber points ``r`` mm, ``theta`` rad (unwrapped), ``z`` mm, LE to TE.
+    midspan_camber : (n, 3) float64 or None
+        Mid-span camber line (only when ``midspan_wrap_offset != 0``).
+    """
+
+    params: DesignParameters
+    hub_contour: NDArray[np.float64]
+    shroud_contour: NDArray[np.float64]
+    shroud_camber: NDArray[np.float64]
+    hub_camber: NDArray[np.float64]
+    midspan_camber: NDArray[np.float64] | None = field(default=None)
+
+    def to_spec(self, source: Path | None = None) -> ImpellerSpec:
+        """The ``ImpellerSpec`` these arrays describe (unrounded, in memory)."""
+        p = self.params
+        same = (
+            "name",
+            "blades",
+            "bore_radius",
+            "leading_edge",
+            "trailing_edge",
+            "fillet_radius",
+            "splitters",
+            "splitter_start",
+            "stock_allowance",
+            "finishing_allowance",
+        )
+        return ImpellerSpec(
+            source=source,
+            shroud_camber=self.shroud_camber,
+            hub_camber=self.hub_camber,
+            midspan_camber=self.midspan_camber,
+            hub_contour=self.hub_contour,
+            shroud_contour=self.shroud_contour,
+            thickness_u=np.asarray(p.thickness_u, dtype=np.float64),
+            thickness_mm=np.asarray(p.thickness_mm, dtype=np.float64),
+            **{key: getattr(p, key) for key in same},
+        )
+
+
+# ---------------------------------------------------------------------------------
+# validation (field names are those of design.toml; values shown in file units)
+# ---------------------------------------------------------------------------------
+#: Scalar parameters: attribute -> (design.toml field, kind, lowest, highest).
+#: ``kind`` is "int", "float" (mm or fraction) or "deg" (radians here, degrees in the file).
+_SCALARS: dict[str, tuple[str, str, float, float]] = {
+    "blades": ("impeller.blades", "int", 1, 64),
+    "contour_points": ("meridional.points", "int", MIN_SPLINE_POINTS, 2000),
+    "camber_points": ("camber.points", "int", MIN_SPLINE_POINTS, 2000),
+    "shroud_theta_le": ("camber.shroud.theta_le_deg", "deg", -1000.0, 1000.0),
+    "hub_theta_le": ("camber.hub.theta_le_deg", "deg", -1000.0, 1000.0),
+    "midspan_wrap_offset": ("camber.midspan_wrap_offset_deg", "deg", -45.0, 45.0),
+    "bore_radius": ("hub.bore_radius_mm", "float", 0.0, math.inf),
+    "fillet_radius": ("blade.fillet_radius_mm", "float", 0.0, math.inf),
+    "splitters": ("splitters.count", "int", 0, 1),
+    "splitter_start": ("splitters.start_fraction", "float", 0.05, 0.9),
+    "stock_allowance": ("allowances.stock_mm", "float", 0.0, math.inf),
+    "finishing_allowance": ("allowances.finishing_mm", "float", 0.0, math.inf),
+}
+_CHOICES = {
+    "angle_law": ("camber.law", ANGLE_LAWS),
+    "leading_edge": ("blade.leading_edge", EDGE_SHAPES),
+    "trailing_edge": ("blade.trailing_edge", EDGE_SHAPES),
+}
+
+
+def _fail(message: str, name: str, value: Any, accepted: str) -> None:
+    raise InputError(message, field=name, value=value, accepted=accepted)
+
+
+def _is_number(x: Any) -> bool:
+    return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _check_scalar(attr: str, value: Any) -> None:
+    key, kind, lo, hi = _SCALARS[attr]
+    shown = math.degrees(value) if kind == "deg" and _is_number(value) else value
+    accepted = f"{'an integer' if kind == 'int' else 'a number'} {lo:g}..{hi:g}"
+    if not _is_number(value) or (kind == "int" and not isinstance(value, int)):
+        _fail("must be a finite number", key, shown, accepted)
+    if not lo <= shown <= hi:
+        _fail("out of range", key, shown, accepted)
+
+
+def _check_knots(line: str, knots: Floats, values: Floats, values_key: str) -> None:
+    accepted = "knots m increasing from 0 to 1, one finite value per knot, at least 2"
+    m = np.asarray(knots, dtype=np.float64)
+    if m.ndim != 1 or len(m) < 2 or m[0] != 0.0 or m[-1] != 1.0 or np.any(np.diff(m) <= 0):
+        _fail("knots must increase from 0 to 1", f"{line}.m", list(knots), accepted)
+    if len(values) != len(m) or not all(map(_is_number, values)):
+        deg = values_key.endswith("_deg")
+        shown = [round(math.degrees(x), 9) if deg and _is_number(x) else x for x in values]
+        _fail("one finite value per knot needed", f"{line}.{values_key}", shown, accepted)
+
+
+def _check_polygon(key: str, control: Points) -> None:
+    try:
+        arr = np.asarray(control, dtype=np.float64)
+    except (TypeError, ValueError):
+        arr = np.empty((0, 0))
+    if arr.ndim != 2 or arr.shape[1] != 2 or len(arr) < 2 or not np.all(np.isfinite(arr)):
+        _fail("bad control polygon", key, list(control), "at least 2 finite [z, r] points")
+    if np.any(arr[:, 1] <= 0):
+        _fail("control radius must be positive", key, list(control), "r > 0 mm")
+    if np.any(np.linalg.norm(np.diff(arr, axis=0), axis=1) < 1e-9):
+        _fail("repeated control point", key, list(control), "distinct consecutive points")
+
+
+def _validate(p: DesignParameters) -> None:
+    """Raise ``InputError`` naming the design.toml field of the first bad parameter."""
+    if not isinstance(p.name, str) or not _NAME.match(p.name):
+        _fail("bad name", "impeller.name", p.name, "letters, digits, '_', '.', '-'")
+    for attr in _SCALARS:
+        _check_scalar(attr, getattr(p, attr))
+    for attr, (key, options) in _CHOICES.items():
+        if getattr(p, attr) not in options:
+            _fail("unknown value", key, getattr(p, attr), " or ".join(map(repr, options)))
+    values_key = "theta_deg" if p.angle_law == "wrap" else "beta_deg"
+    for line in ("hub", "shroud"):
+        _check_polygon(f"meridional.{line}", getattr(p, f"{line}_control"))
+        span = getattr(p, f"{line}_blade")
+        if len(span) != 2 or not (0.0 <= span[0] < span[1] <= 1.0):
+            _fail(
+                "bad blade span",
+                f"meridional.{line}_blade",
+                list(span),
+                "[le, te] with 0 <= le < te <= 1",
+            )
+        values = getattr(p, f"{line}_angle")
+        _check_knots(f"camber.{line}", getattr(p, f"{line}_knots"), values, values_key)
+        steep = math.radians(MAX_BLADE_ANGLE_DEG)
+        if p.angle_law == "blade_angle" and max(map(abs, values)) > steep:
+            _fail(
+                "blade angle too steep",
+                f"camber.{line}.beta_deg",
+                [round(math.degrees(b), 6) for b in values],
+                f"|beta| <= {MAX_BLADE_ANGLE_DEG:g} deg",
+            )
+    hub_r_min = float(np.min(np.asarray(p.hub_control)[:, 1]))
+    if not 0.0 < p.bore_radius < hub_r_min:
+        _fail(
+            "bore is not inside the hub",
+            "hub.bore_radius_mm",
+            p.bore_radius,
+            f"0 < bore < smallest hub control radius {hub_r_min:g} mm",
+        )
+    _check_knots("blade.thickness", p.thickness_u, p.thickness_mm, "mm")
+    if min(p.thickness_mm) <= 0:
+        _fail("thickness must be positive", "blade.thickness.mm", list(p.thickness_mm), "mm > 0")
+
+
+# ---------------------------------------------------------------------------------
+# functional core
+# ---------------------------------------------------------------------------------
+def bezier(control: NDArray[np.float64], t: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Bezier curve of ``(k, d)`` control points at parameters ``t`` ``(n,)`` -> ``(n, d)``.
+
+    ``B(t) = sum_i C(n, i) t^i (1 - t)^(n - i) P_i`` with ``n = k - 1`` (Bernstein form).
+    """
+    control = np.asarray(control, dtype=np.float64)
+    t = np.asarray(t, dtype=np.float64)[:, None]
+    n = len(control) - 1
+    i = np.arange(n + 1)
+    basis = np.array([math.comb(n, k) for k in i]) * t**i * (1.0 - t) ** (n - i)
+    return np.asarray(basis @ control)
+
+
+def _dense_contour(control: Points) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Dense ``(N, 2)`` samples of a Bezier contour and their arc length, mm."""
+    pts = bezier(np.asarray(control), np.linspace(0.0, 1.0, DENSE_SAMPLES))
+    length = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    return pts, length
+
+
+def _at_length(
+    pts: NDArray[np.float64], length: NDArray[np.float64], s: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Contour points ``(n, 2)`` at arc lengths ``s`` (mm) by interpolation of dense samples."""
+    return np.column_stack([np.interp(s, length, pts[:, 0]), np.interp(s, length, pts[:, 1])])
+
+
+def integrate_blade_angle(
+    m: NDArray[np.float64],
+    r: NDArray[np.float64],
+    beta: NDArray[np.float64],
+    theta_le: float = 0.0,
+) -> NDArray[np.float64]:
+    """Wrap angle from the blade angle: ``theta(m) = theta_le + int_0^m tan(beta) / r dm``.
+
+    Parameters
+    ----------
+    m : (n,) float64
+        Meridional length from the leading edge, mm, increasing.
+    r : (n,) float64
+        Radius at ``m``, mm (> 0).
+    beta : (n,) float64
+        Blade angle from the meridional direction at ``m``, rad (+ towards +theta).
+    theta_le : float
+        theta at ``m[0]``, rad.
+
+    Returns
+    -------
+    (n,) float64
+        theta, rad (trapezoidal rule: exact for constant ``tan(beta)/r``).
+    """
+    integrand = np.tan(beta) / r
+    return np.asarray(theta_le + cumulative_trapezoid(integrand, m, initial=0.0))
+
+
+def _camber_line(
+    p: DesignParameters,
+    control: Points,
+    span: tuple[float, float],
+    knots: Floats,
+    angle: Floats,
+    theta_le: float,
+) -> NDArray[np.float64]:
+    """``(n, 3)`` r, theta, z camber points of one line, uniform in meridional length."""
+    pts, length = _dense_contour(control)
+    s0, s1 = span[0] * length[-1], span[1] * length[-1]
+    law = PchipInterpolator(np.asarray(knots), np.asarray(angle))
+    m_camber = np.linspace(0.0, 1.0, p.camber_points)
+    zr = _at_length(pts, length, s0 + m_camber * (s1 - s0))
+    if p.angle_law == "wrap":
+        theta = np.asarray(law(m_camber))
+    else:
+        m_dense = np.linspace(0.0, 1.0, DENSE_SAMPLES)
+        zr_dense = _at_length(pts, length, s0 + m_dense * (s1 - s0))
+        theta_dense = integrate_blade_angle(
+            m_dense * (s1 - s0), zr_dense[:, 1], np.asarray(law(m_dense)), theta_le
+        )
+        theta = np.interp(m_camber, m_dense, theta_dense)
+    return np.column_stack([zr[:, 1], theta, zr[:, 0]])
+
+
+def _midspan_line(
+    shroud: NDArray[np.float64], hub: NDArray[np.float64], offset: float
+) -> NDArray[np.float64]:
+    """Mid-span line: ruling midpoints turned about +Z by ``offset * m`` (m: 0 at LE, 1 at TE).
+
+    With ``offset = 0`` it lies on the rulings; otherwise its wrap exceeds that of the
+    ruling midpoints by ``offset`` and the blade is no longer ruled.
+    """
+    mid = 0.5 * (cylindrical_to_cartesian(shroud) + cylindrical_to_cartesian(hub))
+    r = np.hypot(mid[:, 0], mid[:, 1])
+    theta = np.unwrap(np.arctan2(mid[:, 1], mid[:, 0]))
+    # keep theta on the same turn as the rulings' ends
+    theta += 2 * np.pi * np.round((0.5 * (shroud[0, 1] + hub[0, 1]) - theta[0]) / (2 * np.pi))
+    theta = theta + offset * np.linspace(0.0, 1.0, len(mid))
+    return np.column_stack([r, theta, mid[:, 2]])
+
+
+def generate(params: DesignParameters) -> GeneratedDesign:
+    """Make the contours and camber lines of ``params``.
+
+    Returns
+    -------
+    GeneratedDesign
+        Contours sampled uniformly in arc length (``contour_points`` each) and camber
+        lines uniform in meridional length (``camber_points`` each).
+
+    Raises
+    ------
+    InputError
+        When the generated geometry is inconsistent (hub and shroud crossing, ...),
+        from ``geometry.validate.check_spec_geometry``.
+    """
+    p = params
+    contours = []
+    for control in (p.hub_control, p.shroud_control):
+        pts, length = _dense_contour(control)
+        contours.append(_at_length(pts, length, np.linspace(0, length[-1], p.contour_points)))
+    shroud = _camber_line(
+        p, p.shroud_control, p.shroud_blade, p.shroud_knots, p.shroud_angle, p.shroud_theta_le
+    )
+    hub = _camber_line(p, p.hub_control, p.hub_blade, p.hub_knots, p.hub_angle, p.hub_theta_le)
+    mid = None if p.midspan_wrap_offset == 0 else _midspan_line(shroud, hub, p.midspan_wrap_offset)
+    design = GeneratedDesign(p, contours[0], contours[1], shroud, hub, mid)
+    check_spec_geometry(design.to_spec())
+    return design
+
+
+# ---------------------------------------------------------------------------------
+# writing
+# ---------------------------------------------------------------------------------
+def _num(x: float) -> str:
+    """Deterministic fixed-point text of ``x`` with ``DECIMALS`` decimals, no ``-0``."""
+    text = f"{round(float(x), DECIMALS) + 0.0:.{DECIMALS}f}"
+    return "0." + "0" * DECIMALS if text == "-0." + "0" * DECIMALS else text
+
+
+def _short_num(x: float) -> str:
+    """Shortest round-trip text of a parameter value (``repr`` of the float)."""
+    return repr(round(float(x), DECIMALS) + 0.0)
+
+
+def camber_csv_text(camber: NDArray[np.float64]) -> str:
+    """CSV text ``r,theta_deg,z`` of ``(n, 3)`` r (mm), theta (rad), z (mm) points."""
+    rows = ["r,theta_deg,z"]
+    rows += [f"{_num(r)},{_num(math.degrees(t))},{_num(z)}" for r, t, z in camber]
+    return "\n".join(rows) + "\n"
+
+
+def _pairs(points: NDArray[np.float64]) -> str:
+    return "[\n" + "".join(f"    [{_num(a)}, {_num(b)}],\n" for a, b in points) + "]"
+
+
+def spec_toml_text(design: GeneratedDesign) -> str:
+    """The spec TOML text of ``design`` (camber CSV names as written by ``write_generated``)."""
+    p = design.params
+    u, mm = (", ".join(map(_short_num, values)) for values in (p.thickness_u, p.thickness_mm))
+    thickness = f"thickness = {{ u = [{u}], mm = [{mm}] }}"
+    if len(set(p.thickness_mm)) == 1:
+        thickness = f"thickness_mm = {_short_num(p.thickness_mm[0])}"
+    mid = "" if design.midspan_camber is None else f'midspan = "{_FILES["midspan"]}"\n'
+    return (
+        "# Generated by geometry.design from design.toml: edit that file, then run\n"
+        "# fixtures/impellers/regenerate.py (or geometry.design.write_design).\n"
+        f'[impeller]\nname = "{p.name}"\nblades = {p.blades}\n\n'
+        f'[camber]\nshroud = "{_FILES["shroud"]}"\nhub = "{_FILES["hub"]}"\n{mid}\n'
+        f"[meridional]\nhub = {_pairs(design.hub_contour)}\n"
+        f"shroud = {_pairs(design.shroud_contour)}\n\n"
+        f"[hub]\nbore_radius_mm = {_short_num(p.bore_radius)}\n\n"
+        f'[blade]\n{thickness}\nleading_edge = "{p.leading_edge}"\n'
+        f'trailing_edge = "{p.trailing_edge}"\nfillet_radius_mm = {_short_num(p.fillet_radius)}\n\n'
+        f"[splitters]\ncount = {p.splitters}\nstart_fraction = {_short_num(p.splitter_start)}\n\n"
+        f"[allowances]\nstock_mm = {_short_num(p.stock_allowance)}\n"
+        f"finishing_mm = {_short_num(p.finishing_allowance)}\n"
+    )
+
+
+def write_generated(design: GeneratedDesign, folder: str | Path) -> Path:
+    """Write ``spec.toml`` and the camber CSVs of ``design`` into ``folder`` atomically.
+
+    All files are staged and published together (``impeller_cam.atomic``). A stale
+    ``mid_camber.csv`` from an earlier non-ruled variant is removed.
+
+    Returns
+    -------
+    Path
+        The written ``spec.toml``.
+    """
+    folder = Path(folder)
+    texts = {
+        _FILES["shroud"]: camber_csv_text(design.shroud_camber),
+        _FILES["hub"]: camber_csv_text(design.hub_camber),
+        "spec.toml": spec_toml_text(design),
+    }
+    if design.midspan_camber is not None:
+        texts[_FILES["midspan"]] = camber_csv_text(design.midspan_camber)
+    with staged_directory(folder) as stage:
+        for name, text in texts.items():
+            write_text_atomic(stage / name, text)
+    stale = folder / _FILES["midspan"]
+    if design.midspan_camber is None and stale.exists():
+        stale.unlink()
+    return folder / "spec.toml"
+
+
+def write_design(params: DesignParameters, folder: str | Path) -> Path:
+    """Generate ``params`` and write the spec TOML + CSVs into ``folder``; return the TOML path."""
+    return write_generated(generate(params), folder)
+
+
+# ---------------------------------------------------------------------------------
+# design.toml
+# ---------------------------------------------------------------------------------
+def _lookup(data: dict[str, Any], dotted: str) -> Any:
+    """Value at a dotted key, or ``...`` when it is missing."""
+    node: Any = data
+    for key in dotted.split("."):
+        if not isinstance(node, dict) or key not in node:
+            return ...
+        node = node[key]
+    return node
+
+
+def _numbers(value: Any, dotted: str, convert: Callable[[float], float] = float) -> Floats:
+    if _is_number(value):
+        value = [value]
+    if isinstance(value, str) or not isinstance(value, Sequence) or not all(map(_is_number, value)):
+        raise InputError(
+            "must be a list of numbers", field=dotted, value=value, accepted="[number, ...]"
+        )
+    return tuple(convert(float(x)) for x in value)
+
+
+def _design_kwargs(data: dict[str, Any], path: Path) -> dict[str, Any]:
+    """Constructor arguments of ``DesignParameters`` from parsed design.toml data."""
+    law = _lookup(data, "camber.law")
+    values_key = "beta_deg" if law == "blade_angle" else "theta_deg"
+    kwargs: dict[str, Any] = {"name": path.parent.name}
+    required = ["impeller.blades", "meridional.hub", "meridional.shroud", "hub.bore_radius_mm"]
+    for line in ("shroud", "hub"):
+        required += [f"camber.{line}.m", f"camber.{line}.{values_key}"]
+    for dotted in required:
+        if _lookup(data, dotted) is ...:
+            raise InputError("required field is missing", field=dotted)
+    for line in ("shroud", "hub"):
+        control = _lookup(data, f"meridional.{line}")
+        if isinstance(control, str) or not isinstance(control, Sequence):
+            raise InputError(
+                "must be a list of [z, r] pairs",
+                field=f"meridional.{line}",
+                value=control,
+                accepted="[[z, r], ...]",
+            )
+        pairs = [_numbers(pair, f"meridional.{line}") for pair in control]
+        kwargs[f"{line}_control"] = tuple(tuple(pair) for pair in pairs)
+        kwargs[f"{line}_knots"] = _numbers(_lookup(data, f"camber.{line}.m"), f"camber.{line}.m")
+        kwargs[f"{line}_angle"] = _numbers(
+            _lookup(data, f"camber.{line}.{values_key}"),
+            f"camber.{line}.{values_key}",
+            math.radians,
+        )
+        span = _lookup(data, f"meridional.{line}_blade")
+        if span is not ...:
+            kwargs[f"{line}_blade"] = _numbers(span, f"meridional.{line}_blade")
+    constant, law_table = _lookup(data, "blade.thickness_mm"), _lookup(data, "blade.thickness")
+    if (constant is ...) == (law_table is ...):
+        raise InputError(
+            "give exactly one of thickness_mm or thickness",
+            field="blade",
+            accepted="thickness_mm = <mm> or thickness = { u = [...], mm = [...] }",
+        )
+    if constant is not ...:
+        kwargs["thickness_mm"] = _numbers(constant, "blade.thickness_mm") * 2
+    else:
+        for key in ("u", "mm"):
+            value = _lookup(data, f"blade.thickness.{key}")
+            kwargs[f"thickness_{key}"] = _numbers(
+                [] if value is ... else value, f"blade.thickness.{key}"
+            )
+    for attr, (dotted, kind, _, _) in _SCALARS.items():
+        value = _lookup(data, dotted)
+        if value is not ...:
+            kwargs[attr] = math.radians(value) if kind == "deg" and _is_number(value) else value
+    for attr, (dotted, _) in {"name": ("impeller.name", ()), **_CHOICES}.items():
+        value = _lookup(data, dotted)
+        if value is not ...:
+            kwargs[attr] = value
+    return kwargs
+
+
+def load_design(path: str | Path) -> DesignParameters:
+    """Read ``design.toml`` (format in docs/design-generator.md) into ``DesignParameters``.
+
+    Raises
+    ------
+    InputError
+        Naming the file, the dotted field and the value.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(
+            "design file not found", file=path, value=str(path), accepted="an existing design TOML"
+        )
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        return DesignParameters(**_design_kwargs(data, path))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
+        raise InputError(f"not valid TOML: {error}", file=path) from None
+    except InputError as error:
+        raise InputError(
+            error.message, file=path, field=error.field, value=error.value, accepted=error.accepted
+        ) from None
