@@ -1,0 +1,503 @@
+"""``CollisionScene``: posture and motion checks of a tool against named meshes.
+
+The scene holds, per role (``"hub"``, ``"pressure"``, ``"blade3"``, ...), an fcl
+``BVHModel`` (OBBRSS) of the mesh, a grid of lower bounds of the distance to it
+(all grids on one frame; the scene's grid is their minimum) and its triangles in
+a bounding-volume hierarchy (numba). Each tool part is covered by spheres on its
+axis. A check of ``n`` postures runs in stages, each deciding what it can:
+
+1. **Scene grid** (numba, all postures): a part whose spheres all clear the
+   lower bound of the distance to the whole scene is clear of every role.
+2. **Role grid + exact sphere test** (numba, the rest, role by role in order,
+   roles whose bounding box the part's spheres cannot reach skipped):
+   each sphere is tested against the role's grid, then against the exact
+   distance to the role's triangles near it. The pair (part, role) is *clear*
+   (every sphere clear), a *definite hit* (a surface point strictly inside the
+   true part, the role's pieces all larger than the part), or *undecided*.
+   Postures already settled by a definite hit earlier in the order are skipped.
+3. **fcl** (Python loop, only postures whose first non-clear pair in the order
+   cutter, shank, holder x roles is undecided): ``fcl.collide`` on the
+   undecided pairs in that order until the first contact.
+
+A plain loop over every posture, part and role with ``fcl.collide`` (see
+``reference.plain_fcl_check``) gives identical answers: pairs skipped here are
+proven contact-free, definite hits are contacts fcl must report.
+
+Contact semantics are fcl's for meshes: two *surfaces* intersect or touch. A
+part buried entirely inside a closed scene mesh without crossing its surface is
+not a contact (it cannot get there without crossing it; ``check_motion``
+catches the crossing within its stated bound).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection, Mapping
+from dataclasses import dataclass, field
+
+import fcl
+import numpy as np
+import trimesh
+from numpy.typing import ArrayLike, NDArray
+
+from cam.collision.broad_phase import (
+    axis_spheres,
+    grid_frame,
+    inscribed_radii,
+    surface_grid,
+)
+from cam.collision.distance_grid import DistanceGrid, RoleMask
+from cam.collision.exact_phase import CLEAR, HIT, TriangleSet, classify_spheres
+from cam.collision.narrow_phase import first_contacts
+from cam.collision.postures import (
+    motion_bound,
+    rotations_to,
+    subdivide_motion,
+    validate_postures,
+)
+from cam.collision.tool_mesh import (
+    DEFAULT_ARC_STEP,
+    DEFAULT_SECTIONS,
+    PART_NAMES,
+    PartGeometry,
+    bvh_model,
+    concatenate,
+    tool_geometry,
+)
+from cam.tools import Tool
+from impeller_cam.errors import InputError
+
+#: Safety margin of the broad phase over fcl's own contact tolerance, mm.
+BROAD_MARGIN = 1e-4
+#: Distance up to which the role masks list the roles near a grid node, mm.
+_MASK_LIMIT = 8.0
+
+
+@dataclass
+class PostureReport:
+    """Answers for ``n`` postures (or ``n`` motion segments).
+
+    Attributes
+    ----------
+    collides : (n,) bool
+        Some checked tool part touches or crosses a scene surface.
+    part : (n,) int8
+        First part found in contact in the order cutter (0), shank (1),
+        holder (2); -1 for none.
+    hit_role : list of (str or None), length n
+        The scene role that part touched first (roles in scene order).
+    clearance : (n,) float64
+        Distance of the shank and holder meshes (cutter excluded) to the scene,
+        mm; 0 in contact. Exact (fcl distance of the meshes) up to
+        ``clearance_cap``; above it a guaranteed lower bound (>= cap). NaN when
+        clearance was not asked for or the tool has neither shank nor holder.
+    bound : float
+        For motion checks: the tool between sub-samples may come up to this
+        much closer to the scene than reported, mm (0 for posture checks).
+    """
+
+    collides: NDArray[np.bool_]
+    part: NDArray[np.int8]
+    hit_role: list[str | None]
+    clearance: NDArray[np.float64]
+    bound: float = 0.0
+    checks: dict[str, int] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.collides)
+
+    def blocked(self, min_clearance: float = 0.0) -> NDArray[np.bool_]:
+        """``(n,) bool``: in contact, or shank/holder closer than ``min_clearance`` (mm).
+
+        Roughing's "nothing closer than eta": check with ``cutter_allowance=-eta``
+        and use ``blocked(eta)``. Needs the clearance when ``min_clearance > 0``.
+        """
+        if min_clearance <= 0:
+            return self.collides.copy()
+        if np.isnan(self.clearance).any():
+            raise ValueError("blocked(min_clearance > 0) needs a report with clearance")
+        return self.collides | (self.clearance < min_clearance)
+
+
+@dataclass
+class _ToolModel:
+    parts: dict[str, PartGeometry]
+    objects: dict[str, fcl.CollisionObject]
+    spheres: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]]
+    inner: dict[str, NDArray[np.float64]]
+    size: dict[str, float]
+    clear_object: fcl.CollisionObject | None
+    clear_spheres: tuple[NDArray[np.float64], NDArray[np.float64]] | None
+    reach: float
+
+
+def _check_meshes(meshes: Mapping[str, trimesh.Trimesh]) -> None:
+    if not meshes:
+        raise InputError("the collision scene needs at least one mesh", field="meshes")
+    for role, mesh in meshes.items():
+        if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+            raise InputError(
+                "scene mesh must be a non-empty trimesh.Trimesh",
+                field=f"meshes[{role!r}]",
+                value=type(mesh).__name__,
+            )
+        if not np.isfinite(mesh.vertices).all():
+            raise InputError("scene mesh has non-finite vertices", field=f"meshes[{role!r}]")
+
+
+class CollisionScene:
+    """Named triangle meshes (roles) against which tool postures are checked.
+
+    Parameters
+    ----------
+    meshes : mapping of str to trimesh.Trimesh
+        Scene meshes by role, in the workpiece frame, mm. The role order is the
+        order in which contacts are reported.
+    sample_spacing : float
+        Broad-phase surface sample spacing, mm; the covering radius is at most
+        ``sample_spacing / sqrt(3)``.
+    grid_spacing : float
+        Spacing of the broad-phase distance grids, mm. Smaller decides more
+        postures without fcl but costs memory (one float32 per node and role).
+    grid_margin : float
+        The grids reach this far beyond the scene's bounding box, mm (beyond
+        it, the distance to the bounding box is the bound).
+    max_reach : float
+        Covering spheres larger than this skip the exact test (fcl decides), mm
+        (default: none do).
+    sections : int
+        Sections of the revolved tool meshes (see ``tool_mesh``).
+    arc_step_deg : float
+        Largest angular step of circumscribed ball/corner arcs, degrees.
+    slack : float
+        Largest excess of a broad-phase sphere over the part radius, mm.
+    """
+
+    def __init__(
+        self,
+        meshes: Mapping[str, trimesh.Trimesh],
+        *,
+        sample_spacing: float = 0.5,
+        grid_spacing: float = 1.0,
+        grid_margin: float = 10.0,
+        max_reach: float = math.inf,
+        sections: int = DEFAULT_SECTIONS,
+        arc_step_deg: float = math.degrees(DEFAULT_ARC_STEP),
+        slack: float = 0.25,
+    ) -> None:
+        _check_meshes(meshes)
+        if not (sample_spacing > 0 and grid_spacing > 0 and slack > 0 and arc_step_deg > 0):
+            raise InputError(
+                "sample_spacing, grid_spacing, slack and arc_step_deg must be positive",
+                field="sample_spacing/grid_spacing/slack/arc_step_deg",
+                value=(sample_spacing, grid_spacing, slack, arc_step_deg),
+            )
+        self.roles: tuple[str, ...] = tuple(meshes)
+        self.meshes = {role: meshes[role] for role in self.roles}
+        self.sections = int(sections)
+        self.arc_step = math.radians(arc_step_deg)
+        self.slack = float(slack)
+        self.objects = {
+            role: fcl.CollisionObject(bvh_model(m.vertices, m.faces), fcl.Transform())
+            for role, m in self.meshes.items()
+        }
+        self.triangles = {
+            role: TriangleSet(m.vertices, m.faces) for role, m in self.meshes.items()
+        }
+        merged = concatenate(list(self.meshes.values()))
+        origin, shape = grid_frame(merged.vertices, grid_spacing, grid_margin)
+        self.grids = {
+            role: surface_grid(
+                self.triangles[role].bvh, sample_spacing, origin, shape, grid_spacing
+            )
+            for role in self.roles
+        }
+        self.whole = DistanceGrid.minimum(list(self.grids.values()))
+        self.role_mask = (
+            RoleMask(list(self.grids.values()), min(_MASK_LIMIT, grid_margin))
+            if len(self.roles) <= 62
+            else None
+        )
+        self.max_reach = float(max_reach)
+        self._merged = merged
+        self._whole_object: fcl.CollisionObject | None = None
+        self._tools: dict[tuple[Tool, float], _ToolModel] = {}
+
+    @property
+    def whole_object(self) -> fcl.CollisionObject:
+        """fcl object of all scene meshes merged (clearance queries; built on first use)."""
+        if self._whole_object is None:
+            merged = self._merged
+            self._whole_object = fcl.CollisionObject(
+                bvh_model(merged.vertices, merged.faces), fcl.Transform()
+            )
+        return self._whole_object
+
+    # -- tool models ---------------------------------------------------------------
+
+    def tool_model(self, tool: Tool, cutter_offset: float = 0.0) -> _ToolModel:
+        """The (cached) meshes, fcl objects and sphere covers of a tool."""
+        key = (tool, float(cutter_offset))
+        if key not in self._tools:
+            parts = tool_geometry(
+                tool, cutter_offset=cutter_offset, sections=self.sections, arc_step=self.arc_step
+            )
+            objects = {n: fcl.CollisionObject(p.bvh, fcl.Transform()) for n, p in parts.items()}
+            spheres = {
+                n: axis_spheres(p.profile, p.radial_scale, self.slack, p.corner_centre_height)
+                for n, p in parts.items()
+            }
+            inner = {
+                n: inscribed_radii(p.profile, spheres[n][0], p.arc_excess)
+                for n, p in parts.items()
+            }
+            size = {
+                n: float(np.linalg.norm(np.ptp(p.mesh.vertices, axis=0)))
+                for n, p in parts.items()
+            }
+            body = [parts[n] for n in ("shank", "holder") if n in parts]
+            clear_object = None
+            clear_spheres = None
+            if body:
+                mesh = concatenate([p.mesh for p in body])
+                clear_object = fcl.CollisionObject(bvh_model(mesh.vertices, mesh.faces))
+                clear_spheres = (
+                    np.concatenate([spheres[p.name][0] for p in body]),
+                    np.concatenate([spheres[p.name][1] for p in body]),
+                )
+            reach = max(
+                float(np.linalg.norm(p.mesh.vertices, axis=1).max()) for p in parts.values()
+            )
+            self._tools[key] = _ToolModel(
+                parts, objects, spheres, inner, size, clear_object, clear_spheres, reach
+            )
+        return self._tools[key]
+
+    # -- checks --------------------------------------------------------------------
+
+    def check_postures(
+        self,
+        tool: Tool,
+        tip: ArrayLike,
+        axis: ArrayLike,
+        *,
+        parts: Collection[str] = PART_NAMES,
+        cutter_allowance: float = 0.0,
+        cutter_roles: Collection[str] | None = None,
+        clearance: bool = True,
+        clearance_cap: float = math.inf,
+    ) -> PostureReport:
+        """Check ``n`` tool postures against the scene.
+
+        Parameters
+        ----------
+        tool : Tool
+        tip, axis : (n, 3) array-like
+            Tool tips (mm) and unit axes in the scene frame.
+        parts : collection of str
+            Parts to check for contact: any of ``"cutter"``, ``"shank"``,
+            ``"holder"`` (parts the tool lacks are skipped).
+        cutter_allowance : float
+            The cutter is checked shrunk by this much, mm (negative grows it).
+            Finishing: a small positive allowance (above the scene tessellation
+            error) lets the ball touch the surface it cuts. Roughing: ``-eta``
+            keeps the cutter ``eta`` away from the design surfaces.
+        cutter_roles : collection of str, optional
+            Roles the cutter is checked against (default: all). Shank and
+            holder are always checked against all roles.
+        clearance : bool
+            Compute the shank+holder clearance.
+        clearance_cap : float
+            Clearances above this are reported as a lower bound (>= cap) from
+            the broad phase instead of an fcl distance, mm.
+
+        Returns
+        -------
+        PostureReport
+        """
+        tip_a, axis_a = validate_postures(tip, axis)
+        unknown = set(parts) - set(PART_NAMES)
+        if unknown:
+            raise InputError(
+                "unknown tool part", field="parts", value=sorted(unknown), accepted=str(PART_NAMES)
+            )
+        if not math.isfinite(cutter_allowance):
+            raise InputError("cutter_allowance must be finite", field="cutter_allowance")
+        if not clearance_cap >= 0:
+            raise InputError(
+                "clearance_cap must be >= 0", field="clearance_cap", value=clearance_cap,
+                accepted="a distance >= 0 mm or inf",
+            )
+        roles_for_cutter = self._roles(cutter_roles)
+        model = self.tool_model(tool, -float(cutter_allowance))
+        n = len(tip_a)
+        rot = rotations_to(axis_a)
+        active = [p for p in PART_NAMES if p in parts and p in model.parts]
+        state = np.full((n, len(PART_NAMES), len(self.roles)), CLEAR, dtype=np.int8)
+        settled = np.zeros(n, dtype=bool)  # a definite hit earlier in the order decides
+        for p in active:
+            code = PART_NAMES.index(p)
+            heights, radii = model.spheres[p]
+            roles = roles_for_cutter if p == "cutter" else self.roles
+            todo = np.flatnonzero(~settled)
+            if len(roles) == len(self.roles) and len(self.roles) > 1 and todo.size:
+                lb = self.whole.part_bounds(
+                    tip_a[todo], axis_a[todo], heights, radii, BROAD_MARGIN
+                )
+                todo = todo[lb <= BROAD_MARGIN]
+            if not todo.size:
+                continue
+            centres = tip_a[todo, None, :] + heights[None, :, None] * axis_a[todo, None, :]
+            part_lo = (centres - radii[None, :, None]).min(axis=1) - BROAD_MARGIN
+            part_hi = (centres + radii[None, :, None]).max(axis=1) + BROAD_MARGIN
+            masks = np.full(len(todo), -1, dtype=np.int64)
+            if self.role_mask is not None:
+                masks = self.role_mask.roles_near(
+                    tip_a[todo], axis_a[todo], heights, radii, BROAD_MARGIN
+                )
+            for role in roles:
+                keep = ~settled[todo]
+                todo, part_lo, part_hi = todo[keep], part_lo[keep], part_hi[keep]
+                masks = masks[keep]
+                if not todo.size:
+                    break
+                # the role must be in the posture's mask and its bounding box must
+                # meet the box around the part's spheres
+                box_lo, box_hi = self.grids[role].box_lo, self.grids[role].box_hi
+                near = np.all((part_hi >= box_lo) & (part_lo <= box_hi), axis=1)
+                near &= ((masks >> self.roles.index(role)) & 1).astype(bool)
+                if not near.any():
+                    continue
+                result = classify_spheres(
+                    self.grids[role],
+                    self.triangles[role],
+                    tip_a[todo[near]],
+                    axis_a[todo[near]],
+                    heights,
+                    radii,
+                    model.inner[p],
+                    margin=BROAD_MARGIN,
+                    allow_hit=self.triangles[role].smallest_component
+                    > model.size[p] + BROAD_MARGIN,
+                    max_reach=self.max_reach,
+                )
+                state[todo[near], code, self.roles.index(role)] = result
+                settled[todo[near][result == HIT]] = True
+        part_objects = [model.objects.get(name) for name in PART_NAMES]
+        role_objects = [self.objects[role] for role in self.roles]
+        collides, part_hit, role_hit, calls = first_contacts(
+            part_objects, role_objects, tip_a, rot, state
+        )
+        clear = np.full(n, np.nan)
+        if clearance and model.clear_object is not None and model.clear_spheres is not None:
+            clear, dist_calls = self._clearance(model, tip_a, axis_a, rot, part_hit, clearance_cap)
+            calls["distance"] = dist_calls
+        hit_role = [None if r < 0 else self.roles[r] for r in role_hit]
+        return PostureReport(collides, part_hit, hit_role, clear, 0.0, calls)
+
+    def check_motion(
+        self,
+        tool: Tool,
+        tip: ArrayLike,
+        axis: ArrayLike,
+        *,
+        max_step_mm: float,
+        max_step_deg: float,
+        parts: Collection[str] = PART_NAMES,
+        cutter_allowance: float = 0.0,
+        cutter_roles: Collection[str] | None = None,
+        clearance: bool = True,
+        clearance_cap: float = math.inf,
+    ) -> PostureReport:
+        """Check the motion between consecutive postures by subdivision.
+
+        The tip moves linearly and the axis turns on the great circle between
+        postures; sub-samples are at most ``max_step_mm`` and ``max_step_deg``
+        apart and are checked with ``check_postures`` (same keyword options).
+
+        Returns
+        -------
+        PostureReport
+            ``n - 1`` entries, one per segment ``i -> i+1`` (both end postures
+            included): the first contact along the segment and the minimum
+            clearance over its sub-samples. ``bound`` (mm) is the largest
+            approach of the tool between sub-samples that can be missed:
+            ``max_step_mm / 2 + 2 L sin(max_step / 4)``, L the largest distance
+            of a tool point from the tip. A segment with no contact and
+            clearance above ``bound`` is contact-free for shank and holder; the
+            cutter is contact-free if also checked with ``cutter_allowance``
+            lowered by ``bound``.
+        """
+        tip_a, axis_a = validate_postures(tip, axis)
+        if len(tip_a) < 2:
+            raise InputError("a motion needs at least two postures", field="tip", value=len(tip_a))
+        step_rad = math.radians(max_step_deg)
+        sub_tip, sub_axis, starts = subdivide_motion(tip_a, axis_a, max_step_mm, step_rad)
+        report = self.check_postures(
+            tool,
+            sub_tip,
+            sub_axis,
+            parts=parts,
+            cutter_allowance=cutter_allowance,
+            cutter_roles=cutter_roles,
+            clearance=clearance,
+            clearance_cap=clearance_cap,
+        )
+        model = self.tool_model(tool, -float(cutter_allowance))
+        first = starts[:-1]
+        last = starts[1:]
+        index = np.arange(len(sub_tip))
+        hit_index = np.where(report.collides, index, len(sub_tip))
+        first_hit = np.minimum(np.minimum.reduceat(hit_index, first), hit_index[last])
+        collides = first_hit < len(sub_tip)
+        safe = np.where(collides, first_hit, 0)
+        part = np.where(collides, report.part[safe], -1).astype(np.int8)
+        roles = [
+            report.hit_role[int(i)] if c else None
+            for i, c in zip(safe, collides, strict=True)
+        ]
+        clear = np.minimum(np.minimum.reduceat(report.clearance, first), report.clearance[last])
+        bound = motion_bound(model.reach, max_step_mm, step_rad)
+        checks = dict(report.checks, substeps=len(sub_tip))
+        return PostureReport(collides, part, roles, clear, bound, checks)
+
+    # -- internals -----------------------------------------------------------------
+
+    def _roles(self, roles: Collection[str] | None) -> tuple[str, ...]:
+        if roles is None:
+            return self.roles
+        unknown = set(roles) - set(self.roles)
+        if unknown:
+            raise InputError(
+                "unknown scene role",
+                field="cutter_roles",
+                value=sorted(unknown),
+                accepted=", ".join(self.roles),
+            )
+        return tuple(r for r in self.roles if r in roles)
+
+    def _clearance(
+        self,
+        model: _ToolModel,
+        tip: NDArray[np.float64],
+        axis: NDArray[np.float64],
+        rot: NDArray[np.float64],
+        part_hit: NDArray[np.int8],
+        cap: float,
+    ) -> tuple[NDArray[np.float64], int]:
+        assert model.clear_object is not None and model.clear_spheres is not None
+        heights, radii = model.clear_spheres
+        body_hit = part_hit >= 1
+        if math.isinf(cap):
+            clear = np.zeros(len(tip))
+            exact = np.flatnonzero(~body_hit)
+        else:
+            clear = self.whole.part_bounds(tip, axis, heights, radii, cap)
+            clear[body_hit] = 0.0
+            exact = np.flatnonzero((clear <= cap) & ~body_hit)
+        request = fcl.DistanceRequest()
+        for i in exact:
+            model.clear_object.setTransform(fcl.Transform(rot[i], tip[i]))
+            d = fcl.distance(model.clear_object, self.whole_object, request, fcl.DistanceResult())
+            clear[i] = max(float(d), 0.0)
+        return clear, len(exact)
