@@ -1,0 +1,150 @@
+"""The ``Impeller`` facade: spec -> surfaces -> solid (lazy, cached) -> meshes, export."""
+
+from __future__ import annotations
+
+import time
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import trimesh
+from OCP.Bnd import Bnd_Box
+from OCP.BRepBndLib import BRepBndLib
+from OCP.TopoDS import TopoDS_Face, TopoDS_Solid
+
+from geometry.assembly import ROLES, ImpellerSolid, build_impeller_solid
+from geometry.brep import area, volume
+from geometry.export import write_step, write_stl
+from geometry.fillet import fold_ratio
+from geometry.mesh import tessellate
+from geometry.spec import ImpellerSpec, load_spec
+from geometry.surfaces import ImpellerSurfaces, build_surfaces
+from impeller_cam.errors import InputError
+from impeller_cam.tolerances import DEFAULT_TOLERANCES
+
+__all__ = ["Impeller"]
+
+
+class Impeller:
+    """An impeller built from a validated spec.
+
+    Parameters
+    ----------
+    spec : ImpellerSpec
+    fillets : bool
+        Build the blade-to-hub fillets (default). ``False`` explicitly asks for a
+        solid without them.
+    """
+
+    def __init__(self, spec: ImpellerSpec, fillets: bool = True) -> None:
+        self.spec = spec
+        self.fillets = fillets
+        self.build_seconds = 0.0
+        self._meshes: dict[float, tuple[trimesh.Trimesh, np.ndarray]] = {}
+
+    @classmethod
+    def from_spec(cls, path: str | Path, fillets: bool = True) -> Impeller:
+        """Load and validate a spec TOML."""
+        return cls(load_spec(path), fillets=fillets)
+
+    @cached_property
+    def surfaces(self) -> ImpellerSurfaces:
+        """Closed-form surfaces (M1)."""
+        return build_surfaces(self.spec)
+
+    @cached_property
+    def built(self) -> ImpellerSolid:
+        """The fused solid with roles (built on first use)."""
+        start = time.perf_counter()
+        result = build_impeller_solid(self.surfaces, fillets=self.fillets)
+        self.build_seconds = time.perf_counter() - start
+        return result
+
+    @property
+    def solid(self) -> TopoDS_Solid:
+        """The one valid OCP solid."""
+        return self.built.part.solid
+
+    def faces(self, role: str) -> list[TopoDS_Face]:
+        """Faces of the solid with ``role`` (one of ``geometry.assembly.ROLES``)."""
+        if role not in ROLES:
+            raise InputError("unknown face role", field="role", value=role,
+                             accepted=", ".join(ROLES))
+        part = self.built.part
+        return [f for f, r in zip(part.faces, part.roles, strict=True) if r == role]
+
+    def role_counts(self) -> dict[str, int]:
+        """Number of faces per role."""
+        return {role: self.built.part.roles.count(role) for role in ROLES}
+
+    def _mesh(self, tolerance: float) -> tuple[trimesh.Trimesh, np.ndarray]:
+        if tolerance not in self._meshes:
+            part = self.built.part
+            self._meshes[tolerance] = tessellate(
+                part.solid, part.faces, part.roles, tolerance,
+                DEFAULT_TOLERANCES.tessellation_angle,
+            )
+        return self._meshes[tolerance]
+
+    def mesh(self, role: str | None = None,
+             tolerance: float = DEFAULT_TOLERANCES.tessellation) -> trimesh.Trimesh:
+        """Triangle mesh of the whole impeller (watertight) or of the faces of ``role``."""
+        if tolerance <= 0:
+            raise InputError("tessellation tolerance must be positive", field="tessellation",
+                             value=tolerance, accepted="a length > 0 mm")
+        whole, labels = self._mesh(tolerance)
+        if role is None:
+            return whole
+        if role not in ROLES:
+            raise InputError("unknown face role", field="role", value=role,
+                             accepted=", ".join(ROLES))
+        sub = whole.submesh([np.flatnonzero(labels == role)], append=True)
+        return sub if isinstance(sub, trimesh.Trimesh) else trimesh.Trimesh()
+
+    def triangle_roles(self, tolerance: float = DEFAULT_TOLERANCES.tessellation) -> np.ndarray:
+        """Role of each triangle of :meth:`mesh` (whole) at ``tolerance``."""
+        return self._mesh(tolerance)[1]
+
+    def export_step(self, path: str | Path) -> Path:
+        """Write the solid as STEP (mm)."""
+        return write_step(self.solid, path)
+
+    def export_stl(self, path: str | Path,
+                   tolerance: float = DEFAULT_TOLERANCES.tessellation) -> Path:
+        """Write the whole mesh as binary STL (mm)."""
+        return write_stl(self.mesh(tolerance=tolerance), path)
+
+    @cached_property
+    def figures(self) -> dict[str, Any]:
+        """Derived figures: compute_figures (when available) + volume, area, bbox."""
+        out: dict[str, Any] = {}
+        try:
+            from geometry.figures import compute_figures
+        except ImportError:  # the figures module is another engineer's; optional here
+            compute_figures = None  # type: ignore[assignment]
+        if compute_figures is not None:
+            fig = compute_figures(self.surfaces)
+            out.update(
+                d_min_mm=float(fig.d_min),
+                d_min_points_mm=np.asarray(fig.d_min_points).tolist(),
+                r_max_mm=float(fig.r_max),
+                k=float(fig.k),
+                min_thickness_mm=float(fig.min_thickness),
+                rule_deviation_mm=float(fig.rule_deviation),
+                max_fillet_radius_mm=float(fig.max_fillet_radius),
+            )
+        box = Bnd_Box()
+        BRepBndLib.AddOptimal_s(self.solid, box, False, False)
+        out.update(
+            blades=self.spec.blades,
+            splitters=self.spec.splitters * self.spec.blades,
+            fillet_radius_mm=self.spec.fillet_radius,
+            fillets_built=self.fillets and self.spec.fillet_radius > 0,
+            fillet_fold_ratio=max((fold_ratio(t, self.built.radius) for ts in self.built.tracks
+                                   for t in ts), default=0.0),
+            volume_mm3=volume(self.solid),
+            area_mm2=area(self.solid),
+            bbox_mm=[list(box.CornerMin().Coord()), list(box.CornerMax().Coord())],
+        )
+        return out
