@@ -58,6 +58,19 @@ def finish_command(
     run_finish(spec, machine, tool, out)
 
 
+@app.command("rough")
+def rough_command(
+    spec: Annotated[Path, typer.Argument(help="Impeller spec (TOML).")],
+    machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML.")],
+    tool: Annotated[str, typer.Option("-t", "--tool", help="NAME or LIBRARY.toml:NAME.")],
+    out: Annotated[Path, typer.Option("-o", "--out", help="Output folder.")],
+) -> None:
+    """Three-axis roughing by Unit Machining Regions (3+2): APT per UMR, rough.json."""
+    from cam.roughing.command import run_rough
+
+    run_rough(spec, machine, tool, out)
+
+
 @app.command("verify")
 def verify_command(
     programs: Annotated[list[Path], typer.Argument(help="NC programs, run in order.")],
@@ -92,7 +105,11 @@ def post_command(
         float, typer.Option("--tolerance", help="Chordal tolerance of the tool tip, mm.")
     ] = 0.01,
     angular_tolerance: Annotated[
-        float, typer.Option("--angular-tolerance", help="Angular tolerance of the tool axis between two CL records, deg.")
+        float,
+        typer.Option(
+            "--angular-tolerance",
+            help="Angular tolerance of the tool axis between two CL records, deg.",
+        ),
     ] = 0.5,
     block_numbers: Annotated[bool, typer.Option(help="Number the blocks (N words).")] = False,
     program_number: Annotated[

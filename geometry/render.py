@@ -42,7 +42,7 @@ def render_png(mesh: trimesh.Trimesh, roles: np.ndarray, path: str | Path,
     plotter.add_mesh(poly, scalars="rgb", rgb=True, smooth_shading=False)
     plotter.view_isometric()  # type: ignore[call-arg]  # pyvista stub
     plotter.camera.elevation = 15
-    plotter.reset_camera()
+    plotter.reset_camera()  # type: ignore[call-arg]  # pyvista stub
     plotter.camera.zoom(1.3)
     with tempfile.TemporaryDirectory() as tmp:
         scratch = Path(tmp) / "render.png"

@@ -1,0 +1,211 @@
+"""Roughing plan: CL points per UMR, layer and pass, links, and the 5-axis baseline.
+
+``plan_roughing`` (command.py) does the whole method on passage 0 and turns the
+result about +Z for the other passages. Here:
+
+* **3+2 region** (``region_segment``): each UMR cuts the stations of its u-range in
+  every layer (eq. 2) and pass (eq. 9), zigzag, in the UMR frame (axis = +Z). A CL
+  point is the target's XY with the height ``max(target, drop)``, the drop-cutter
+  height being the lowest ball position (radius R + eta) along the axis touching no
+  design triangle. A point is cut only where material is: its ball meets the blank,
+  the drop lifts it less than one layer depth above its target (more means the
+  target lies in a blade's shadow for this axis: the layer above already cut that
+  height), and it does not repeat the clamped height of the layer above.
+* **Order and links** (both plans): layers alternate direction, so each layer ends
+  above the start of the next; two consecutive runs are joined by one direct
+  cutting move when it is at most ``direct_link_mm`` long and safe (drop-cutter
+  along it), otherwise by retract (at feed until the ball clears the blank by the
+  clearance), rapid at the link height, and a ramp or plunge.
+* **Feed moves between CL points** are refined: each is sampled every
+  ``REFINE_STEP`` mm and the drop-cutter height inserted where the straight move
+  would dip below it, so the ball keeps eta from the design along the moves, not
+  only at the points.
+* The simultaneous five-axis baseline (``baseline.py``) uses the same ordering and
+  link rules.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam.roughing.dropcutter import DropCutter
+from cam.roughing.linking import LinkSettings, entry_moves, link_runs, refine_moves
+from cam.roughing.passage import PassageGrid
+from cam.roughing.passes import rotate_z, zigzag_order
+from cam.roughing.stock import Blank
+from cam.roughing.umr import UMR
+from postproc.toolpath import MoveKind
+
+__all__ = [
+    "Segment", "clear_distance", "cutting_runs", "direct_kind", "region_segment",
+    "rotate_segment", "safe_height_of",
+]
+
+Progress = Callable[[int, int, str], None]
+
+
+@dataclass
+class Segment:
+    """Poses of one region of one passage (W, mm) before feeds are attached.
+
+    ``kind`` is the ``MoveKind`` of the move ending at each pose; ``axis`` is constant
+    for a 3+2 segment. ``notes`` counts links (``direct``, ``full``) and refinements.
+    """
+
+    tip: NDArray[np.float64]
+    axis: NDArray[np.float64]
+    kind: NDArray[np.int8]
+    fixed: bool
+    umr: int
+    passage: int
+    ramps: int = 0
+    plunges: int = 0
+    cut_points: int = 0
+    notes: dict[str, float] = field(default_factory=dict)
+
+
+def layer_order(n_layers: int, n_passes: int, n_stations: int) -> list[NDArray[np.int64]]:
+    """Flat zigzag indices of each layer, odd layers reversed (a layer ends above the
+    start of the next one)."""
+    base = zigzag_order(n_passes, n_stations)
+    return [base if k % 2 == 0 else base[::-1].copy() for k in range(n_layers)]
+
+
+def cutting_runs(keep: NDArray[np.bool_], *fields_: NDArray[np.float64]
+                 ) -> list[list[NDArray[np.float64]]]:
+    """Runs of consecutive kept points, per layer in ``layer_order``.
+
+    ``keep`` is ``(L, P, S)``; every field ``(L, P, S, 3)``. Returns one list per field
+    (the runs of all layers in cutting order).
+    """
+    layers, n_p, n_s = keep.shape
+    out: list[list[NDArray[np.float64]]] = [[] for _ in fields_]
+    for k, order in enumerate(layer_order(layers, n_p, n_s)):
+        flat_keep = keep[k].reshape(-1)[order]
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], flat_keep.astype(np.int8), [0]])))
+        for f, values in enumerate(fields_):
+            flat = values[k].reshape(-1, 3)[order]
+            out[f] += [flat[a:b] for a, b in zip(edges[::2], edges[1::2], strict=True)]
+    return out
+
+
+def direct_kind(a: NDArray[np.float64], b: NDArray[np.float64],
+                 axis: NDArray[np.float64]) -> int:
+    """A direct connection that goes down the axis is a plunge, otherwise a feed."""
+    return int(MoveKind.PLUNGE if float(np.dot(b - a, axis)) < -1e-6 else MoveKind.FEED)
+
+
+def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, envelope: DropCutter,
+                   radius: float, settings: LinkSettings, safe_height: float,
+                   direct_link: float) -> Segment:
+    """The 3+2 poses of one UMR in passage 0 (see module docstring)."""
+    frame = umr.frame
+    first_station, last_station = umr.stations
+    targets = frame.to_frame(grid.centres[:, :, first_station:last_station + 1])
+    floor = frame.cutter.drop(targets.reshape(-1, 3)).reshape(targets.shape[:-1])
+    z = np.maximum(targets[..., 2], floor)
+    lift = z - targets[..., 2]
+    clamped = lift > 1e-6
+    local = targets.copy()
+    local[..., 2] = z
+    world = frame.to_world(local)
+    material = blank.touches(world, radius)
+    depth = float(np.linalg.norm(grid.ruling, axis=-1).max()) / grid.n1
+    repeated = np.zeros_like(clamped)
+    repeated[1:] = clamped[1:] & clamped[:-1] & (z[1:] > z[:-1] - 0.25 * depth)
+    shadow = lift > depth
+    keep = material & ~repeated & ~shadow
+    (runs,) = cutting_runs(keep, local)
+    up = np.array([0.0, 0.0, 1.0])
+    centres: list[NDArray[np.float64]] = []
+    kinds: list[NDArray[np.int8]] = []
+    counts = {"direct": 0, "full": 0, "ramps": 0, "plunges": 0}
+    last: NDArray[np.float64] = np.zeros(3)
+
+    def clear_height(point: NDArray[np.float64]) -> float:
+        return point[2] + clear_distance(frame.to_world(point), umr.axis, blank, radius,
+                                         settings.clearance)
+
+    for index, run in enumerate(runs):
+        direction = run[1] - run[0] if len(run) > 1 else None
+        if index == 0:
+            entry, entry_kind, ramped = entry_moves(run[0], direction, frame.cutter, settings)
+            top = entry[0].copy()
+            top[2] = safe_height
+            centres += [top[None], entry]
+            kinds += [np.array([MoveKind.RAPID], np.int8), entry_kind]
+            counts["ramps" if ramped else "plunges"] += 1
+        elif (np.linalg.norm(run[0] - last) <= direct_link
+              and _line_clear(last, run[0], frame.cutter)):
+            centres.append(run[0][None])
+            kinds.append(np.array([direct_kind(last, run[0], up)], np.int8))
+            counts["direct"] += 1
+        else:
+            link, link_kind, ramped = link_runs(last, run[0], direction, frame.cutter,
+                                                envelope, settings, clear_height(last))
+            centres.append(link)
+            kinds.append(link_kind)
+            counts["full"] += 1
+            counts["ramps" if ramped else "plunges"] += 1
+        centres.append(run[1:])
+        kinds.append(np.full(len(run) - 1, MoveKind.FEED, np.int8))
+        last = run[-1]
+    if centres:
+        out = last.copy()
+        out[2] = min(clear_height(last), safe_height)
+        top = last.copy()
+        top[2] = safe_height
+        centres += [out[None], top[None]]
+        kinds.append(np.array([MoveKind.RETRACT, MoveKind.RAPID], np.int8))
+        local_all = np.concatenate(centres)
+        kind = np.concatenate(kinds)
+        local_all, kind, added = refine_moves(local_all, kind, frame.cutter)
+    else:
+        local_all = np.zeros((0, 3))
+        kind = np.zeros(0, np.int8)
+        added = 0
+    world_centres = frame.to_world(local_all)
+    tip = world_centres - radius * frame.axis
+    axis = np.broadcast_to(frame.axis, tip.shape).copy()
+    notes = {"direct_links": float(counts["direct"]), "full_links": float(counts["full"]),
+             "refined": float(added), "runs": float(len(runs)),
+             "shadow_points": float((material & shadow).sum())}
+    return Segment(tip, axis, kind, True, umr.index, 0, counts["ramps"], counts["plunges"],
+                   int(keep.sum()), notes)
+
+
+def _line_clear(a: NDArray[np.float64], b: NDArray[np.float64], cutter: DropCutter,
+                step: float = 0.25) -> bool:
+    """The straight ball-centre move a -> b (frame) stays on or above the drop surface."""
+    n = max(2, int(math.ceil(float(np.linalg.norm(b - a)) / step)) + 1)
+    t = np.linspace(0.0, 1.0, n)[:, None]
+    pts = a[None] + t * (b - a)[None]
+    return bool(np.all(cutter.drop(pts) <= pts[:, 2] + 1e-9))
+
+
+def rotate_segment(segment: Segment, passage: int, pitch: float) -> Segment:
+    """The segment turned by ``passage * pitch`` about +Z (the next passage)."""
+    angle = passage * pitch
+    return Segment(rotate_z(segment.tip, angle), rotate_z(segment.axis, angle),
+                   segment.kind.copy(), segment.fixed, segment.umr, passage, segment.ramps,
+                   segment.plunges, segment.cut_points, dict(segment.notes))
+
+
+def clear_distance(point: NDArray[np.float64], axis: NDArray[np.float64], blank: Blank,
+                   radius: float, clearance: float, step: float = 0.5) -> float:
+    """Distance along ``axis`` (W) that takes the ball at ``point`` (W) ``clearance``
+    off the blank, mm."""
+    t = np.arange(0.0, 400.0, step)
+    inside = blank.touches(point[None] + t[:, None] * axis[None], radius + clearance)
+    free = np.flatnonzero(~inside)
+    return float(t[free[0]]) if free.size else float(t[-1])
+
+
+def safe_height_of(umr: UMR, envelope: DropCutter, distance: float) -> float:
+    """Frame height above every design and blank point, plus ``distance``, mm."""
+    return max(umr.frame.top, float(envelope.triangles[:, :, 2].max())) + distance

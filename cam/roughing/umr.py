@@ -1,0 +1,201 @@
+"""Unit Machining Regions (M4, Figs. 2-4): fixed cutter axes that cover a passage.
+
+Partition (our implementation of the flowchart of Fig. 4):
+
+1. The first candidate axis is the ruling of the suction surface at its shroud point
+   ``P_1`` at the region start, pointing from the hub to the shroud (tip towards
+   spindle). On our fixtures that axis alone leaves most of the passage width in the
+   shadow of the pressure blade, so a few more rulings are tried as candidates (the
+   pressure-side and mid-passage rulings at and a little ahead of the start) and the
+   one whose region reaches furthest is kept.
+2. Rotate the scene by alpha about X and beta about Y so the axis is +Z
+   (``dropcutter.frame_to_z``) and project onto the x-y plane. The paper reads the
+   interference-free region off the projected hub and shroud curves; we decide it
+   with the tool's size: a hub-floor target is *reached* when the ball (radius
+   R + eta) dropped along the axis onto hub, blades and splitters stops within
+   ``reach_tolerance`` of it. A station (a cross-section of the passage) belongs to
+   the region while the reached share of its floor area is at least ``min_reach``.
+3. Where that stops (the point P2 where the neighbouring blade's shroud curve starts
+   to hide the hub curve), the next UMR starts with the ruling there as its axis.
+4. Repeat until the trailing edge. Each UMR's A and C come from the machine's inverse
+   kinematics of its axis (passage 0; passage k adds ``k * pitch`` to C).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam.roughing.dropcutter import DropCutter, frame_to_z
+from cam.roughing.passage import PassageGrid
+from geometry.surfaces import BladeSurface
+
+__all__ = ["UMR", "FixedAxisFrame", "partition_passage", "reached_floor"]
+
+#: Default look-ahead fractions of the candidate axes (see ``partition_passage``).
+LOOK_AHEAD = (0.0, 0.1, 0.2)
+
+
+class FixedAxisFrame:
+    """The scene turned so that a fixed cutter axis is +Z, with its drop-cutter.
+
+    Parameters
+    ----------
+    axis : (3,) float64
+        Unit cutter axis in W (tip towards spindle).
+    triangles : (m, 3, 3) float64
+        Design triangles in W (hub, blades, splitters), mm.
+    rho : float
+        Ball radius plus allowance, mm.
+    """
+
+    def __init__(self, axis: NDArray[np.float64], triangles: NDArray[np.float64],
+                 rho: float) -> None:
+        self.axis = np.asarray(axis, dtype=np.float64) / np.linalg.norm(axis)
+        self.matrix, self.alpha, self.beta = frame_to_z(self.axis)
+        self.triangles = triangles @ self.matrix.T
+        self.rho = float(rho)
+        self.cutter = DropCutter(self.triangles, self.rho)
+        self.top = float(self.triangles[:, :, 2].max())
+
+    def to_frame(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
+        """W points ``(..., 3)`` -> frame coordinates."""
+        return np.asarray(points @ self.matrix.T)
+
+    def to_world(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Frame points ``(..., 3)`` -> W."""
+        return np.asarray(points @ self.matrix)
+
+    def drop(self, points_w: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Drop-cutter ball-centre heights (frame z) under W points ``(..., 3)``."""
+        local = self.to_frame(points_w)
+        flat = local.reshape(-1, 3)
+        return np.asarray(self.cutter.drop(flat).reshape(local.shape[:-1]))
+
+
+@dataclass
+class UMR:
+    """One unit machining region of passage 0.
+
+    Attributes
+    ----------
+    index : int
+        0-based order.
+    stations : (2,) int
+        First and last station index (inclusive) of the region.
+    u_range : (2,) float
+        Camber parameters of those stations.
+    axis : (3,) float64
+        Fixed cutter axis in W for passage 0.
+    alpha, beta : float
+        Rotations about X and Y taking the axis onto +Z, rad.
+    reached : (n_s + 1, m) bool
+        Hub targets the axis reaches (whole passage).
+    area : float
+        Hub floor area the region covers (reached targets of its stations), mm^2.
+    joints : (5,) float64
+        X, Y, Z, A, C of the region's first tool pose (passage 0), mm and rad.
+    lane : int
+        The lane of passage 0 it cuts (``passage.passage_lanes``).
+    """
+
+    index: int
+    stations: tuple[int, int]
+    u_range: tuple[float, float]
+    axis: NDArray[np.float64]
+    alpha: float
+    beta: float
+    reached: NDArray[np.bool_]
+    area: float
+    frame: FixedAxisFrame
+    joints: NDArray[np.float64] = field(default_factory=lambda: np.full(5, np.nan))
+    lane: int = 0
+
+
+def reached_floor(frame: FixedAxisFrame, grid: PassageGrid,
+                  tolerance: float) -> NDArray[np.bool_]:
+    """Hub targets ``(n_s + 1, m)`` the frame's drop reaches within ``tolerance`` mm."""
+    hub = grid.centres[-1]
+    target_z = frame.to_frame(hub)[..., 2]
+    return np.asarray(frame.drop(hub) <= target_z + tolerance)
+
+
+def _extent(share: NDArray[np.float64], start: int, min_reach: float) -> int:
+    stop = start
+    while stop < len(share) and share[stop] >= min_reach:
+        stop += 1
+    return stop
+
+
+def partition_passage(grid: PassageGrid, suction_blade: BladeSurface,
+                      triangles: NDArray[np.float64], rho: float, *,
+                      reach_tolerance: float, min_reach: float,
+                      look_ahead: tuple[float, ...] = LOOK_AHEAD, first_index: int = 0,
+                      lane: int = 0) -> list[UMR]:
+    """UMRs of passage 0 from leading to trailing edge (see module docstring).
+
+    Parameters
+    ----------
+    grid : PassageGrid
+    suction_blade : BladeSurface
+        The blade whose suction side bounds the passage (its rulings give the
+        first candidate axis of each region).
+    triangles : (m, 3, 3) float64
+        Design triangles near the passage, W, mm.
+    rho : float
+        R + eta, mm.
+    reach_tolerance : float
+        A hub target is reached when the dropped ball centre is at most this much
+        above it, mm.
+    min_reach : float
+        Smallest reached share of a station's floor area for the station to join
+        the region (0..1).
+    look_ahead : tuple of float
+        Candidate axes: besides the suction-side ruling at the region start, the
+        pressure-side and mid-passage rulings at these fractions of the passage
+        length ahead of the start. The candidate that extends the region furthest
+        wins (ties: the earlier candidate).
+    first_index, lane : int
+        Index of the first UMR returned, and the lane (``passage_lanes``) they cut.
+    """
+    m = len(grid.u)
+    area = grid.floor_area
+    mid = grid.n_s // 2
+    umrs: list[UMR] = []
+    start = 0
+    while start < m:
+        own = (grid.u[start] - suction_blade.u_start) / (1.0 - suction_blade.u_start)
+        candidates = [-np.asarray(suction_blade.ruling(float(np.clip(own, 0.0, 1.0))))]
+        for ahead in look_ahead:
+            i = min(m - 1, start + int(round(ahead * (m - 1))))
+            candidates += [grid.ruling[0, i], grid.ruling[mid, i]]
+        best: tuple[int, float] | None = None
+        chosen = None
+        for axis in candidates:
+            frame = FixedAxisFrame(axis, triangles, rho)
+            reached = reached_floor(frame, grid, reach_tolerance)
+            share = (reached * area).sum(axis=0) / np.maximum(area.sum(axis=0), 1e-300)
+            stop = _extent(share, start, min_reach)
+            score = (stop, float(share[start]))
+            if best is None or score > best:
+                best, chosen = score, (frame, reached)
+        assert best is not None and chosen is not None
+        frame, reached = chosen
+        stop = max(best[0], start + 1)  # an axis that serves no station still takes one
+        covered = float((reached[:, start:stop] * area[:, start:stop]).sum())
+        prev = umrs[-1] if umrs else None
+        if prev is not None and np.allclose(prev.axis, frame.axis, atol=1e-12):
+            # the same axis again (a station no candidate serves): extend the region
+            prev.stations = (prev.stations[0], stop - 1)
+            prev.u_range = (prev.u_range[0], float(grid.u[stop - 1]))
+            prev.area += covered
+            start = stop
+            continue
+        umrs.append(UMR(first_index + len(umrs), (start, stop - 1),
+                        (float(grid.u[start]), float(grid.u[stop - 1])),
+                        frame.axis, frame.alpha, frame.beta, reached, covered, frame,
+                        lane=lane))
+        start = stop
+    return umrs

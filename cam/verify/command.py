@@ -1,0 +1,382 @@
+"""``impeller-cam verify``: run NC programs through the stock and report what happened.
+
+``run_verify`` reads each NC program (``postproc.nc_reader``), maps its blocks to
+tool moves in the workpiece frame (``cam.verify.motion``), sweeps the tool through
+the tri-dexel stock (``cam.verify.stock``), and collects events: rapids that cut,
+shank or holder touching stock, over-travel, and, with a design, gouges and excess
+material (``cam.verify.deviation``). It writes, atomically into ``out``:
+verify.json, report.html, verify.junit.xml, stock.npz (the final stock state, the
+``--stock`` of a following run) and PNG renders.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam.verify.deviation import DesignDistance, Deviation, grouped_extremes
+from cam.verify.events import EVENT_TYPES, Event, sort_events
+from cam.verify.motion import program_moves
+from cam.verify.sources import load_design, load_stock
+from cam.verify.stock import Stock
+from cam.verify.toolshape import tool_shape
+from impeller_cam.atomic import staged_directory, write_bytes_atomic, write_text_atomic
+from impeller_cam.errors import InputError
+from postproc.program import Motion
+
+#: Sub-moves swept per kernel call (progress granularity).
+BATCH = 2000
+#: Events of one type per program kept in the outputs (largest first).
+MAX_EVENTS_PER_TYPE = 200
+
+
+@dataclass(frozen=True)
+class VerifyOptions:
+    """Tolerances of a verification run (mm).
+
+    Attributes
+    ----------
+    sweep_tolerance : float or None
+        Bound on the distance between the swept and the true tool inside a 5-axis
+        block (``cam.verify.motion``); ``None``: a tenth of the resolution.
+    contact_tolerance : float
+        A rapid cut or a shank/holder overlap counts when longer than this along a
+        dexel ray.
+    gouge_tolerance : float
+        Stock surface deeper than this inside the design is a gouge; more than the
+        allowance plus this outside it is excess. It must exceed the design mesh's
+        tessellation error.
+    allowance : float or None
+        Finishing allowance; ``None``: the design spec's ``finishing_allowance`` (0
+        for a mesh design).
+    render : bool
+        Write PNG renders (and embed them in report.html).
+    """
+
+    sweep_tolerance: float | None = None
+    contact_tolerance: float = 0.01
+    gouge_tolerance: float = 0.05
+    allowance: float | None = None
+    render: bool = True
+
+
+def _progress(enabled: bool | None) -> Any:
+    if enabled is None:
+        enabled = sys.stderr.isatty()
+    if not enabled:
+        return None
+    from rich.progress import Progress
+
+    return Progress(transient=True)
+
+
+def _check_inputs(programs: list[Path], resolution: float) -> None:
+    if not programs:
+        raise InputError("no NC program given", field="PROGRAM", accepted="one or more NC files")
+    for program in programs:
+        if not Path(program).is_file():
+            raise InputError("NC program not found", file=program, field="PROGRAM")
+    if not (np.isfinite(resolution) and 0.005 <= resolution <= 5.0):
+        raise InputError(
+            "resolution out of range",
+            field="--resolution",
+            value=resolution,
+            accepted="0.005 <= MM <= 5 (default 0.1)",
+        )
+
+
+def _sweep_program(
+    stock: Stock, moves: Any, shape: Any, block_offset: int, bar: Any, label: str
+) -> NDArray[np.float64]:
+    """Sweep all sub-moves; returns per-block stats (removed mm^3, longest cut, overlap)."""
+    n_sub = len(moves.tips)
+    ids = (moves.block + block_offset).astype(np.int32)
+    stats = np.zeros((n_sub, 3))
+    task = bar.add_task(label, total=n_sub) if bar is not None else None
+    for s in range(0, n_sub, BATCH):
+        e = min(n_sub, s + BATCH)
+        stats[s:e] = stock.sweep(
+            moves.tips[s:e], moves.moves[s:e], moves.axes[s:e], ids[s:e], shape
+        )
+        if bar is not None:
+            bar.update(task, completed=e)
+    n_blocks = len(moves.end_tip)
+    per_block = np.zeros((n_blocks, 3))
+    np.add.at(per_block[:, 0], moves.block, stats[:, 0])
+    np.maximum.at(per_block[:, 1], moves.block, stats[:, 1])
+    np.maximum.at(per_block[:, 2], moves.block, stats[:, 2])
+    return per_block
+
+
+def _motion_events(
+    name: str, program: Any, moves: Any, per_block: NDArray[np.float64], contact: float
+) -> list[Event]:
+    events: list[Event] = []
+    rapid = program.motion == int(Motion.RAPID)
+    for b in np.flatnonzero(rapid & (per_block[:, 1] > contact)):
+        events.append(Event(
+            "rapid_in_stock", int(program.line[b]), name, tuple(moves.end_tip[b]),
+            float(per_block[b, 1]),
+            f"rapid move cuts stock: {per_block[b, 0]:.3f} mm3 removed, "
+            f"{per_block[b, 1]:.3f} mm deep along a dexel",
+            {"removed_volume_mm3": float(per_block[b, 0])},
+        ))
+    for b in np.flatnonzero(per_block[:, 2] > contact):
+        events.append(Event(
+            "holder_collision", int(program.line[b]), name, tuple(moves.end_tip[b]),
+            float(per_block[b, 2]),
+            f"shank or holder runs {per_block[b, 2]:.3f} mm into the stock",
+        ))
+    for found in moves.overtravel:
+        b = found["block"]
+        past = abs(found["value"] - found["limit"])
+        events.append(Event(
+            "overtravel", int(program.line[b]), name, tuple(moves.end_tip[b]), past,
+            f"axis {found['axis']} reaches {found['value']:.4f} {found['unit']}, "
+            f"beyond its limit {found['limit']:.4f} {found['unit']}",
+            {"axis": found["axis"], "limit": found["limit"], "value": found["value"]},
+        ))
+    return events
+
+
+def _deviation_events(
+    deviation: Deviation,
+    owners: list[tuple[str, int]],
+    gouge_tol: float,
+    allowance: float,
+    last_program: str,
+) -> list[Event]:
+    events: list[Event] = []
+    key = deviation.moves.astype(np.int64)
+    gouge = grouped_extremes(
+        (deviation.distance < -gouge_tol) & (key >= 0), key, -deviation.distance
+    )
+    for move, i, depth in gouge:
+        name, line = owners[move]
+        events.append(Event(
+            "gouge", line, name, tuple(deviation.points[i]), depth,
+            f"material removed {depth:.3f} mm inside the design surface",
+        ))
+    excess = grouped_extremes(
+        deviation.distance > allowance + gouge_tol, key, deviation.distance
+    )
+    for move, i, amount in excess:
+        name, line = owners[move] if move >= 0 else (last_program, 0)
+        where = "left by this block" if move >= 0 else "never machined"
+        events.append(Event(
+            "excess", line, name, tuple(deviation.points[i]), amount,
+            f"{amount:.3f} mm of material left outside the design ({where}), "
+            f"allowance {allowance:.3f} mm",
+        ))
+    return events
+
+
+def _cap(events: list[Event]) -> tuple[list[Event], dict[str, int]]:
+    """Keep the largest MAX_EVENTS_PER_TYPE events per program and type."""
+    counts: dict[str, int] = {t: 0 for t in EVENT_TYPES}
+    kept: list[Event] = []
+    groups: dict[tuple[str, str], list[Event]] = {}
+    for event in events:
+        counts[event.type] += 1
+        groups.setdefault((event.program, event.type), []).append(event)
+    for group in groups.values():
+        kept.extend(sorted(group, key=lambda e: -e.amount)[:MAX_EVENTS_PER_TYPE])
+    return kept, counts
+
+
+def run_verify(
+    programs: list[Path],
+    machine: Path,
+    tool: str,
+    stock: str,
+    design: Path | None,
+    resolution: float,
+    out: Path,
+    *,
+    options: VerifyOptions | None = None,
+    progress: bool | None = None,
+) -> None:
+    """Verify NC programs in sequence on one stock; write the results into ``out``.
+
+    Parameters
+    ----------
+    programs : list of Path
+        NC files, run in order on the same stock.
+    machine : Path
+        Machine TOML (kinematics, limits).
+    tool : str
+        ``-t`` argument: ``NAME`` or ``LIBRARY.toml:NAME``.
+    stock : str
+        ``--stock`` argument (``cam.verify.sources.load_stock``).
+    design : Path or None
+        Impeller spec TOML or closed mesh for gouge/excess/deviation.
+    resolution : float
+        Dexel spacing, mm (0.1 default, 0.05 supported).
+    out : Path
+        Output folder.
+    options : VerifyOptions, optional
+        Tolerances (defaults documented there).
+    progress : bool, optional
+        Show a progress bar (default: only on a TTY).
+
+    Raises
+    ------
+    InputError
+        Bad input (missing file, unknown tool, malformed program...): nothing written.
+    """
+    from cam.tools import resolve_tool
+    from postproc.kinematics import kinematics_for
+    from postproc.machine import load_machine
+    from postproc.nc_reader import read_nc
+
+    opts = options or VerifyOptions()
+    programs = [Path(p) for p in programs]
+    _check_inputs(programs, resolution)
+    the_machine = load_machine(machine)
+    kins = kinematics_for(the_machine)
+    the_tool = resolve_tool(tool)
+    shape = tool_shape(the_tool)
+    read = [read_nc(p) for p in programs]  # all programs parse before any work
+    design_mesh = load_design(design) if design is not None else None
+    work = load_stock(stock, resolution)
+    sweep_tol = opts.sweep_tolerance or 0.1 * work.pitch
+    initial = work.volume()
+
+    events: list[Event] = []
+    owners: list[tuple[str, int]] = list(work.owners)  # blocks of earlier runs first
+    summaries: list[dict[str, Any]] = []
+    images: list[tuple[str, bytes]] = []
+    renders: dict[str, bytes] = {}
+    cycle = 0.0
+    bar = _progress(progress)
+    if bar is not None:
+        bar.start()
+    try:
+        for index, (path, program) in enumerate(zip(programs, read, strict=True)):
+            moves = program_moves(program, the_machine, kins, shape.reach, sweep_tol)
+            before = work.volume()
+            per_block = _sweep_program(work, moves, shape, len(owners), bar, path.name)
+            owners.extend((path.name, int(line)) for line in program.line)
+            after = work.volume()
+            program_events = _motion_events(
+                path.name, program, moves, per_block, opts.contact_tolerance
+            )
+            events.extend(sort_events(program_events))
+            duration = float(moves.duration.sum())
+            cycle += duration
+            summaries.append({
+                "name": path.name,
+                "blocks": len(program),
+                "sub_moves": len(moves.tips),
+                "removed_volume_mm3": round(before - after, 3),
+                "cycle_time_s": round(duration, 3),
+            })
+            if opts.render:
+                png = _render_stock(work, f"after {path.name}")
+                renders[f"stock_{index + 1}_{path.stem}.png"] = png
+                images.append((f"stock after {path.name}", png))
+    finally:
+        if bar is not None:
+            bar.stop()
+
+    deviation_summary: dict[str, Any] = {}
+    if design_mesh is not None:
+        vertices, faces, spec_allowance = design_mesh
+        allowance = opts.allowance if opts.allowance is not None else (spec_allowance or 0.0)
+        distance = DesignDistance(vertices, faces)
+        points, _, moves_of = work.surface_samples()
+        deviation = Deviation(points, distance(points), moves_of)
+        deviation_summary = deviation.summary()
+        deviation_summary["allowance_mm"] = allowance
+        found = _deviation_events(
+            deviation, owners, opts.gouge_tolerance, allowance, programs[-1].name
+        )
+        events.extend(sort_events(found))
+        if opts.render:
+            for view in ("iso", "top", "front"):
+                png = _render_deviation(work, deviation, view, allowance)
+                renders[f"deviation_{view}.png"] = png
+                images.append((f"deviation from the design ({view})", png))
+    elif opts.render:
+        for view in ("top", "front"):
+            png = _render_stock(work, f"final stock ({view})", view)
+            renders[f"stock_final_{view}.png"] = png
+            images.append((f"final stock ({view})", png))
+
+    work.owners = owners
+    kept, counts = _cap(events)
+    order = {p.name: i for i, p in enumerate(programs)}
+    type_order = {t: i for i, t in enumerate(EVENT_TYPES)}
+    kept.sort(key=lambda e: (order[e.program], e.line, type_order[e.type], -e.amount))
+    remaining = work.volume()
+    result: dict[str, Any] = {
+        "format": "impeller-cam verify",
+        "version": 1,
+        "programs": summaries,
+        "machine": str(machine),
+        "tool": the_tool.name,
+        "stock": str(stock),
+        "design": None if design is None else str(design),
+        "resolution_mm": work.pitch,
+        "sweep_tolerance_mm": sweep_tol,
+        "contact_tolerance_mm": opts.contact_tolerance,
+        "gouge_tolerance_mm": opts.gouge_tolerance,
+        "initial_volume_mm3": round(initial, 3),
+        "removed_volume_mm3": round(initial - remaining, 3),
+        "remaining_volume_mm3": round(remaining, 3),
+        "cycle_time_s": round(cycle, 3),
+        "event_counts": counts,
+        "events": [e.to_json() for e in kept],
+        "deviation": deviation_summary,
+    }
+    _write_outputs(Path(out), work, result, kept, [p.name for p in programs], images, renders)
+
+
+def _write_outputs(
+    out: Path,
+    work: Stock,
+    result: dict[str, Any],
+    events: list[Event],
+    names: list[str],
+    images: list[tuple[str, bytes]],
+    renders: dict[str, bytes],
+) -> None:
+    from cam.verify.report import junit_xml, report_html, verify_json
+
+    with staged_directory(out) as stage:
+        write_text_atomic(stage / "verify.json", verify_json(result))
+        write_text_atomic(stage / "verify.junit.xml", junit_xml(names, events, 0.0))
+        write_text_atomic(stage / "report.html", report_html(result, images))
+        work.save(stage / "stock.npz")
+        for name, png in sorted(renders.items()):
+            write_bytes_atomic(stage / name, png)
+
+
+def _render_stock(work: Stock, title: str, view: str = "iso") -> bytes:
+    from cam.verify.report import render_mesh
+    from cam.verify.surface import stock_surface
+
+    vertices, faces = stock_surface(work.grids[2], work.lower[2], work.upper[2])
+    return render_mesh(vertices, faces, view=view, title=title)
+
+
+def _render_deviation(work: Stock, deviation: Deviation, view: str, allowance: float) -> bytes:
+    """Stock surface coloured by the signed deviation of the nearest dexel sample."""
+    from scipy.spatial import cKDTree
+
+    from cam.verify.report import render_mesh
+    from cam.verify.surface import stock_surface
+
+    vertices, faces = stock_surface(work.grids[2], work.lower[2], work.upper[2])
+    if len(vertices) == 0 or len(deviation.points) == 0:
+        return render_mesh(vertices, faces, view=view, title="deviation")
+    _, nearest = cKDTree(deviation.points).query(vertices)
+    values = deviation.distance[nearest]
+    limit = max(4.0 * max(allowance, 0.05), 0.1)
+    return render_mesh(vertices, faces, view=view, scalars=values, limit=limit,
+                       title=f"deviation from design ({view}), mm")

@@ -1,0 +1,151 @@
+"""Where stock and design come from: ``--stock`` and ``--design`` arguments.
+
+``--stock`` accepts ``cylinder:D,H`` (mm; Z axis, from z = 0 up), an impeller spec
+TOML (its lathe-turned blank), a closed mesh (``.stl``, ``.obj``, ``.ply``) or a saved
+stock state (``.npz``). ``--design`` accepts an impeller spec TOML (its design mesh
+from ``geometry``) or a closed mesh.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam.verify.stock import Stock
+from impeller_cam.errors import InputError
+
+MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off")
+STOCK_ACCEPTED = (
+    "cylinder:D,H (mm), an impeller spec .toml, a closed .stl/.obj/.ply mesh or a .npz state"
+)
+
+
+def blank_profile(
+    shroud_contour: NDArray[np.float64],
+    allowance: float,
+    bore_radius: float,
+    hub_contour: NDArray[np.float64] | None = None,
+) -> NDArray[np.float64]:
+    """Meridional polygon (k, 2) of (r, z), mm, of the lathe-turned blank.
+
+    The shroud contour (z, r), inlet to outlet, is offset outwards by ``allowance``
+    along its meridional normal; the blank runs from the back face z = 0 up to the
+    highest contour point plus the allowance (a hub nose may stand above the inlet),
+    from the bore out to the largest contour radius plus the allowance (a hub rim may
+    reach beyond the blade tips).
+    """
+    contour = np.asarray(shroud_contour, dtype=np.float64)
+    r, z = contour[:, 1], contour[:, 0]
+    dr, dz = np.gradient(r), np.gradient(z)
+    length = np.hypot(dr, dz)
+    nr, nz = -dz / length, dr / length  # outward: away from the hub (larger r and z)
+    flip = (nr + nz) < 0
+    nr[flip], nz[flip] = -nr[flip], -nz[flip]
+    off_r, off_z = r + allowance * nr, z + allowance * nz
+    both = contour if hub_contour is None else np.vstack([contour, hub_contour])
+    r_max = float(both[:, 1].max()) + allowance
+    z_top = float(both[:, 0].max()) + allowance
+    order = np.argsort(-off_r)  # outlet (large r) first, then towards the inlet
+    pts = [(bore_radius, 0.0), (r_max, 0.0), (r_max, float(off_z[order[0]]))]
+    pts += [(float(off_r[i]), float(min(off_z[i], z_top))) for i in order]
+    pts += [(float(off_r[order[-1]]), z_top), (bore_radius, z_top), (bore_radius, 0.0)]
+    return np.array(pts)
+
+
+def _load_mesh(path: Path, field: str) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    import trimesh
+
+    try:
+        mesh = trimesh.load(path, force="mesh")
+    except Exception as error:  # noqa: BLE001 - any reader failure is bad input
+        raise InputError(f"cannot read the mesh: {error}", file=path, field=field) from None
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise InputError("the file holds no triangle mesh", file=path, field=field)
+    if not mesh.is_watertight:
+        raise InputError(
+            "the mesh is not closed (watertight)",
+            file=path,
+            field=field,
+            accepted="a closed triangle mesh",
+        )
+    return np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
+
+
+def load_stock(argument: str, resolution: float) -> Stock:
+    """Build the stock named by a ``--stock`` argument at ray spacing ``resolution`` mm.
+
+    A ``.npz`` state keeps its own resolution.
+    """
+    if argument.startswith("cylinder:"):
+        parts = argument[len("cylinder:") :].split(",")
+        try:
+            diameter, height = (float(p) for p in parts)
+        except ValueError:
+            raise InputError(
+                "a cylinder stock needs a diameter and a height",
+                field="--stock",
+                value=argument,
+                accepted="cylinder:D,H, e.g. cylinder:80,40",
+            ) from None
+        return Stock.cylinder(diameter, height, resolution)
+    path = Path(argument)
+    if not path.is_file():
+        raise InputError(
+            "stock not found", field="--stock", value=argument, accepted=STOCK_ACCEPTED
+        )
+    suffix = path.suffix.lower()
+    if suffix == ".npz":
+        return Stock.load(path)
+    if suffix == ".toml":
+        from geometry.spec import load_spec
+
+        spec = load_spec(path)
+        profile = blank_profile(
+            spec.shroud_contour, spec.stock_allowance, spec.bore_radius, spec.hub_contour
+        )
+        return Stock.revolved(profile, resolution)
+    if suffix in MESH_SUFFIXES:
+        vertices, faces = _load_mesh(path, "--stock")
+        return Stock.from_mesh(vertices, faces, resolution)
+    raise InputError("unknown stock kind", field="--stock", value=argument, accepted=STOCK_ACCEPTED)
+
+
+def load_design(path: Path) -> tuple[NDArray[np.float64], NDArray[np.int64], float | None]:
+    """Design mesh and finishing allowance (mm; ``None`` when the file has none).
+
+    Raises
+    ------
+    InputError
+        Missing file, unknown kind, or an open mesh.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("design not found", file=path, field="--design",
+                         accepted="an impeller spec .toml or a closed .stl/.obj/.ply mesh")
+    suffix = path.suffix.lower()
+    if suffix in MESH_SUFFIXES:
+        vertices, faces = _load_mesh(path, "--design")
+        return vertices, faces, None
+    if suffix == ".toml":
+        from geometry.spec import load_spec
+
+        spec = load_spec(path)
+        try:
+            from geometry.impeller import Impeller  # type: ignore[import-not-found]
+        except ImportError as error:
+            raise InputError(
+                "this build has no impeller design mesh (geometry.impeller missing)",
+                file=path,
+                field="--design",
+                accepted="a closed .stl design mesh",
+            ) from error
+        mesh = Impeller.from_spec(path).mesh()
+        return (
+            np.asarray(mesh.vertices, np.float64),
+            np.asarray(mesh.faces, np.int64),
+            float(spec.finishing_allowance),
+        )
+    raise InputError("unknown design kind", file=path, field="--design",
+                     accepted="an impeller spec .toml or a closed .stl/.obj/.ply mesh")

@@ -1,0 +1,153 @@
+"""Issue 5 acceptance on the nine-blade fixture (ball10), coarse options for speed."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from cam.roughing.command import run_rough
+from postproc.apt import read_apt
+from postproc.toolpath import MoveKind
+
+ROOT = Path(__file__).resolve().parents[2]
+SPEC = ROOT / "fixtures/impellers/nine_blade/spec.toml"
+MACHINE = ROOT / "fixtures/machines/trunnion-500.toml"
+COARSE: dict[str, Any] = {"step_along_mm": 2.0, "scallop_mm": 1.0}
+FEEDS = ("500", "1000", "1500", "2000")
+
+
+def pose_and_move_centres(out: Path, doc: dict, radius: float, sector: tuple[float, float],
+                          ) -> np.ndarray:
+    """Ball centres of the written APT (poses, and 3 points inside every cutting move)
+    whose polar angle lies in ``sector`` (rad): one passage, the others are rotations."""
+    centres = []
+    for op in doc["operations"]:
+        for p in read_apt(out / op["apt"]):
+            c = p.tip + radius * p.axis
+            cut = p.kind[1:] != MoveKind.RAPID
+            a, b = c[:-1][cut], c[1:][cut]
+            t = np.array([0.25, 0.5, 0.75])[:, None, None]
+            centres += [c, (a[None] + t * (b - a)[None]).reshape(-1, 3)]
+    c = np.concatenate(centres)
+    ang = np.arctan2(c[:, 1], c[:, 0])
+    return c[(ang > sector[0]) & (ang < sector[1])]
+
+
+def design_stl_distance(spec: Path, centres: np.ndarray, tmp: Path, count: int = 1500
+                        ) -> tuple[np.ndarray, float]:
+    """Distances of centres to the STL of the real solid (fillets, rounded edges),
+    exported finer than the roughing's design mesh and read back with trimesh.
+
+    The checked centres: the ``count // 2`` closest to the design by a coarse
+    sample-point bound, plus ``count // 2`` seeded random ones.
+    """
+    import trimesh
+    from scipy.spatial import cKDTree
+
+    from geometry.impeller import Impeller
+
+    impeller = Impeller.from_spec(spec)
+    stl = impeller.export_stl(tmp / "design.stl", tolerance=0.01)
+    design = trimesh.load(stl)
+    samples, _ = trimesh.sample.sample_surface_even(design, 200_000, seed=5)
+    rough_d, _ = cKDTree(samples).query(centres)
+    near = np.argsort(rough_d)[: count // 2]
+    rand = np.random.default_rng(3).choice(len(centres), size=min(count // 2, len(centres)),
+                                           replace=False)
+    pick = np.unique(np.concatenate([near, rand]))
+    _, dist, _ = trimesh.proximity.closest_point(design, centres[pick])
+    return np.asarray(dist), impeller.spec.finishing_allowance
+
+
+@pytest.fixture(scope="module")
+def rough(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
+    out = tmp_path_factory.mktemp("rough") / "out"
+    doc = run_rough(SPEC, MACHINE, "ball10", out, progress=False, **COARSE)
+    return out, doc
+
+
+def test_outputs_and_umrs(rough: tuple[Path, dict]) -> None:
+    out, doc = rough
+    on_disk = json.loads((out / "rough.json").read_text())
+    assert on_disk["umrs"] and all("A_deg" in u and "C_deg" in u for u in on_disk["umrs"])
+    assert set(on_disk["time_min"]) == {"3axis", "5axis"}
+    assert set(on_disk["time_min"]["3axis"]) == set(FEEDS)
+    assert (out / "table1.md").read_text().count("UMR") == len(doc["umrs"])
+    for op in doc["operations"]:
+        paths = read_apt(out / op["apt"])
+        assert all((p.segment >= 0).all() for p in paths)  # every pose in a 3+2 segment
+        for p in paths:  # fixed orientation within each segment
+            for seg in np.unique(p.segment):
+                axes = p.axis[p.segment == seg]
+                assert np.ptp(axes, axis=0).max() < 1e-6
+
+
+def test_no_collision(rough: tuple[Path, dict]) -> None:
+    _, doc = rough
+    assert doc["postures_checked"] > 0 and doc["moves_checked"] > 0
+    assert doc["index_moves_checked"] == len(doc["umrs"]) * 9 - 1
+    assert doc["collisions"] == 0, doc["hits"]
+
+
+def test_allowance_against_independent_stl(rough: tuple[Path, dict], tmp_path: Path) -> None:
+    """Ball surfaces stay eta from the design at every pose and along every cutting
+    move: exact distances to an STL of a finer, separately built design mesh."""
+    out, doc = rough
+    centres = pose_and_move_centres(out, doc, 5.0, (-1.3, 0.3))
+    dist, eta = design_stl_distance(SPEC, centres, tmp_path)
+    # tolerance: 0.01 mm of the check STL's own tessellation, and the chord of the
+    # straight cutting moves (refined every 0.25 mm) over the check points
+    assert dist.min() - 5.0 >= eta - 0.02
+    assert doc["min_allowance_mm"] >= eta - 1e-6
+
+
+@pytest.mark.xfail(strict=True, reason="measured: on this fixture and machine the 3+2 UMR "
+                   "total is longer than the simultaneous 5-axis baseline (see "
+                   "test_time_comparison_as_measured and docs/roughing.md)")
+def test_three_axis_faster_than_five_axis(rough: tuple[Path, dict]) -> None:
+    _, doc = rough
+    for feed in FEEDS:
+        assert doc["time_min"]["3axis"][feed] < doc["time_min"]["5axis"][feed]
+
+
+def test_time_comparison_as_measured(rough: tuple[Path, dict]) -> None:
+    """What holds on nine_blade (docs/roughing.md, 'Why 3+2 is not shorter here'):
+    the 3+2 plan cuts no longer a path than the baseline, yet its total is longer,
+    and the difference is its extra entries, links and retracts (each UMR and
+    passage starts and ends clear of the blank), not slower cutting."""
+    _, doc = rough
+    split = doc["time_breakdown"]
+    for feed in FEEDS:
+        three, five = doc["time_min"]["3axis"][feed], doc["time_min"]["5axis"][feed]
+        assert three > five
+        s3, s5 = split["3axis"][feed], split["5axis"][feed]
+        assert s3["feed"]["length_mm"] <= s5["feed"]["length_mm"]
+        overhead3 = three - s3["feed"]["nominal_min"]
+        overhead5 = five - s5["feed"]["nominal_min"]
+        assert overhead3 - overhead5 >= three - five
+        # nominal times scale with 1/feed up to rapids and index moves
+        assert doc["time_min"]["3axis"]["500"] / three == pytest.approx(
+            int(feed) / 500, rel=0.02)
+    for feed in FEEDS:  # limited times are never below nominal
+        for plan in ("3axis", "5axis"):
+            assert doc["time_limited_min"][plan][feed] >= doc["time_min"][plan][feed] - 1e-9
+
+
+def test_posts_into_program_rs274_accepts(rough: tuple[Path, dict], tmp_path: Path) -> None:
+    from tests.rs274_runner import rs274_path, run_rs274
+
+    if rs274_path() is None:
+        pytest.skip("LinuxCNC rs274 not installed")
+    from postproc.command import run_post
+
+    out, doc = rough
+    program = tmp_path / "umr1.ngc"
+    # the machine the plan was made for (its A/C and travel; a smaller machine may
+    # not reach the safe height of the index moves)
+    run_post(out / doc["operations"][0]["apt"], MACHINE, program, post="linuxcnc")
+    run = run_rs274(program)
+    assert len(run.feed) > 100

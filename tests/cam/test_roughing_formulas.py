@@ -1,0 +1,178 @@
+"""Hand-computed cases for M4's formulas and the drop-cutter (closed form)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from cam.roughing.dropcutter import DropCutter, frame_to_z
+from cam.roughing.layers import layer_axes, layer_count, layer_fractions, layer_points
+from cam.roughing.passes import (
+    interpolated_pass,
+    linear_passes,
+    offset_curve,
+    pass_count,
+    rotate_z,
+    stepover,
+    zigzag_order,
+)
+from cam.roughing.tool_size import check_tool_size
+from cam.tools import resolve_tool
+from impeller_cam.errors import InputError
+
+
+def test_eq1_tool_size_refuses_large_ball_with_numbers() -> None:
+    tool = resolve_tool("ball10")
+    # r_max = (13 - 2 * 0.5) / (2 * 1.2) = 5.0: a 5 mm radius ball just fits
+    assert check_tool_size(tool, 13.0, 0.5, 1.2) == pytest.approx(5.0, abs=1e-12)
+    with pytest.raises(InputError) as err:
+        check_tool_size(tool, 12.0, 0.5, 1.2)  # r_max = 11 / 2.4 = 4.583 mm
+    assert "4.583" in str(err.value) and "12.000" in str(err.value)
+
+
+def test_stepover_and_pass_count() -> None:
+    # d = 10, h = 0.5: w = 2 sqrt(0.5 * 9.5) = 4.358899
+    assert stepover(10.0, 0.5) == pytest.approx(4.358898944, abs=1e-9)
+    assert pass_count(40.0, 4.358898944) == 10  # 40 / 4.36 = 9.18 -> 10
+    with pytest.raises(InputError):
+        stepover(10.0, 10.0)
+
+
+def test_eq2_eq3_layers() -> None:
+    assert layer_count(38.0, 5.0) == 8
+    assert layer_fractions(4).tolist() == [1.0, 0.75, 0.5, 0.25, 0.0]
+    hub = np.array([1.0, 2.0, 3.0])
+    ruling = np.array([0.0, 0.0, 8.0])  # P_s - P_x
+    pts = layer_points(hub, ruling, 4)
+    assert np.allclose(pts[:, 2], [11.0, 9.0, 7.0, 5.0, 3.0])
+    axes = layer_axes(hub + ruling, pts[1:])
+    assert np.allclose(axes, [0.0, 0.0, 1.0])
+
+
+def test_eq5_to_eq9_passes() -> None:
+    first = np.array([[0.0, 0.0, 0.0]])
+    last = np.array([[4.0, 0.0, 0.0]])
+    assert np.allclose(linear_passes(first, last, 4)[:, 0, 0], [0, 1, 2, 3, 4])
+    assert np.allclose(offset_curve(np.zeros(3), np.array([1.0, 0, 0]), 2.0,
+                                    np.array([0, 0, 1.0]), 0.5), [2.0, 0.0, 0.5])
+    assert np.allclose(rotate_z(np.array([1.0, 0.0, 5.0]), math.pi / 2), [0.0, 1.0, 5.0])
+    # OC_P at angle 0, OC_S at 40 deg, same radius 10: the mid path lies at 20 deg
+    th = math.radians(40.0)
+    oc_p = np.array([10.0, 0.0, 1.0])
+    oc_s = np.array([10 * math.cos(th), 10 * math.sin(th), 3.0])
+    mid = interpolated_pass(oc_p, oc_s, th, 0.5)
+    assert np.allclose(mid, [10 * math.cos(th / 2), 10 * math.sin(th / 2), 2.0])
+    assert np.allclose(interpolated_pass(oc_p, oc_s, th, 0.0), oc_p)
+    assert np.allclose(interpolated_pass(oc_p, oc_s, th, 1.0), oc_s)
+    assert zigzag_order(2, 3).tolist() == [0, 1, 2, 5, 4, 3]
+
+
+def test_frame_to_z_maps_axis() -> None:
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        a = rng.normal(size=3)
+        a /= np.linalg.norm(a)
+        m, _, _ = frame_to_z(a)
+        assert np.allclose(m @ a, [0, 0, 1], atol=1e-12)
+        assert np.allclose(m @ m.T, np.eye(3), atol=1e-12)
+
+
+def test_dropcutter_closed_form_cases() -> None:
+    rho = 2.0
+    plane = np.array([[[-50, -50, 1.0], [50, -50, 1.0], [0, 50, 1.0]]])
+    # facet: ball centre rho above a horizontal plane
+    assert DropCutter(plane, rho).drop(np.array([[0.0, 0.0]]))[0] == pytest.approx(3.0)
+    # inclined plane z = 0.5 x: centre at z = 0.5 x + rho sqrt(1 + 0.25)
+    slope = np.array([[[-50, -50, -25.0], [50, -50, 25.0], [0, 50, 0.0]]])
+    z = DropCutter(slope, rho).drop(np.array([[1.0, 0.0]]))[0]
+    assert z == pytest.approx(0.5 + rho * math.sqrt(1.25), abs=1e-12)
+    # vertex: a tiny triangle around the origin seen from (1, 0): sqrt(4 - 1)
+    tiny = np.array([[[0, 0, 0.0], [-1e-3, -5e-4, -1.0], [-1e-3, 5e-4, -1.0]]])
+    assert DropCutter(tiny, rho).drop(np.array([[1.0, 0.0]]))[0] == pytest.approx(
+        math.sqrt(3.0), abs=1e-9)
+    # edge: a horizontal edge along x at z = 0 seen from y = 1: sqrt(4 - 1)
+    edge = np.array([[[-10, 0, 0.0], [10, 0, 0.0], [0, -1e-3, -5.0]]])
+    assert DropCutter(edge, rho).drop(np.array([[0.0, 1.0]]))[0] == pytest.approx(
+        math.sqrt(3.0), abs=1e-9)
+    # nothing within reach
+    assert DropCutter(plane, rho).drop(np.array([[500.0, 0.0]]))[0] == -np.inf
+
+
+def test_dropcutter_matches_brute_force_on_random_triangles() -> None:
+    rng = np.random.default_rng(7)
+    tri = rng.uniform(-10, 10, (60, 3, 3))
+    pts = rng.uniform(-12, 12, (400, 2))
+    fast = DropCutter(tri, 1.5).drop(pts)
+    slow = np.array([max(DropCutter(t[None], 1.5, cell=100.0).drop(p[None])[0] for t in tri)
+                     for p in pts])
+    assert np.array_equal(np.isfinite(fast), np.isfinite(slow))
+    ok = np.isfinite(fast)
+    assert np.max(np.abs(fast[ok] - slow[ok])) < 1e-12
+    # and no triangle vertex comes closer than rho to the dropped centres
+    centres = np.column_stack([pts[ok], fast[ok]])
+    d = np.linalg.norm(centres[:, None, None, :] - tri[None], axis=-1).min(axis=(1, 2))
+    assert d.min() >= 1.5 - 1e-9
+
+
+def test_refine_moves_lifts_a_cutting_move_over_a_ridge() -> None:
+    from cam.roughing.linking import refine_moves
+    from postproc.toolpath import MoveKind
+
+    # roof ridge along y at z = 0, flanks down to z = -5 at x = +-5
+    roof = np.array([[[-5, -20, -5.0], [0, -20, 0.0], [0, 20, 0.0]],
+                     [[-5, -20, -5.0], [0, 20, 0.0], [-5, 20, -5.0]],
+                     [[5, -20, -5.0], [0, 20, 0.0], [0, -20, 0.0]],
+                     [[5, -20, -5.0], [5, 20, -5.0], [0, 20, 0.0]]])
+    cutter = DropCutter(roof, 1.0)
+    # a straight feed move at z = 0.5 across the ridge: the ball centre must rise to
+    # rho = 1 over the edge (edge contact, closed form sqrt(rho^2 - x^2) near x = 0)
+    path = np.array([[-3.0, 0.0, 0.5], [3.0, 0.0, 0.5]])
+    kind = np.array([MoveKind.RAPID, MoveKind.FEED], np.int8)
+    # the end points themselves are below the flanks' drop surface: lift them first
+    path[:, 2] = np.maximum(path[:, 2], cutter.drop(path))
+    out, k, added = refine_moves(path, kind, cutter, step=0.25)
+    assert added >= 1 and len(out) == 2 + added
+    assert np.all(k[1:] == MoveKind.FEED)
+    top = out[np.argmin(np.abs(out[:, 0]))]
+    assert abs(top[0]) < 0.25 and top[2] == pytest.approx(math.sqrt(1.0 - top[0] ** 2),
+                                                           abs=1e-9)
+    # resampled finely, the refined path dips at most a chord's sag below the surface
+    fine = np.concatenate([np.linspace(a, b, 50)
+                           for a, b in zip(out[:-1], out[1:], strict=True)])
+    assert np.max(cutter.drop(fine) - fine[:, 2]) < 0.02
+
+
+def test_layer_order_alternates_and_push_clear_keeps_rho() -> None:
+    from cam.roughing.baseline import push_clear
+    from cam.roughing.plan import layer_order
+
+    order = layer_order(3, 2, 3)
+    assert order[0].tolist() == [0, 1, 2, 5, 4, 3]
+    assert order[1].tolist() == [3, 4, 5, 2, 1, 0]  # starts where layer 0 ended
+    assert order[2].tolist() == order[0].tolist()
+    # a plane z = 0 (two triangles): a centre 1 mm above moves to rho = 2.5 above it
+    plane = np.array([[[-10, -10, 0.0], [10, -10, 0.0], [10, 10, 0.0]],
+                      [[-10, -10, 0.0], [10, 10, 0.0], [-10, 10, 0.0]]])
+    moved, count = push_clear(np.array([[1.0, 2.0, 1.0], [0.0, 0.0, 4.0]]), plane, 2.5)
+    assert count == 1
+    assert np.allclose(moved, [[1.0, 2.0, 2.5 + 1e-6], [0.0, 0.0, 4.0]])
+
+
+def test_splitter_passage_has_three_lanes() -> None:
+    from pathlib import Path
+
+    from cam.roughing.passage import passage_lanes
+    from geometry.spec import load_spec
+    from geometry.surfaces import build_surfaces
+
+    root = Path(__file__).resolve().parents[2]
+    surfaces = build_surfaces(load_spec(root / "fixtures/impellers/splitter/spec.toml"))
+    lanes = passage_lanes(surfaces)
+    start = surfaces.splitters[0].u_start
+    assert [lane.name for lane in lanes] == ["inlet", "pressure-splitter", "splitter-suction"]
+    assert (lanes[0].u0, lanes[0].u1) == (0.0, start)
+    assert lanes[1].suction is surfaces.splitters[0] and lanes[2].pressure is surfaces.splitters[0]
+    nine = build_surfaces(load_spec(root / "fixtures/impellers/nine_blade/spec.toml"))
+    assert [lane.name for lane in passage_lanes(nine)] == ["passage"]

@@ -1,0 +1,140 @@
+"""NC blocks -> tool moves: interpolation, subdivision bound, time, over-travel."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cam.tools import Segment, Tool
+from cam.verify.motion import program_moves
+from cam.verify.stock import Stock
+from cam.verify.toolshape import tool_shape
+from postproc.kinematics import kinematics_for
+from postproc.machine import load_machine
+from postproc.program import FeedMode, MachineProgram, Motion
+
+ROOT = Path(__file__).resolve().parents[2]
+MACHINE = ROOT / "fixtures" / "machines" / "xyzac-trt.toml"
+BALL = Tool(name="ball6", number=1, shape="ball", diameter=6.0, corner_radius=3.0,
+            flute_length=12.0, shank_diameter=6.0, stickout=30.0,
+            holder=(Segment("holder", 30.0, 50.0, 8.0, 10.0),))
+
+
+def _program(joints: list[list[float]], *, tcp: bool = False, feed_mode: int = 94,
+              feed: float = 600.0, start: list[float] | None = None,
+              motion: int = Motion.LINEAR) -> MachineProgram:
+    j = np.array(joints, dtype=np.float64)
+    j[:, 3:] = np.radians(j[:, 3:])
+    n = len(j)
+    st = np.zeros(5) if start is None else np.array(start, dtype=np.float64)
+    st[3:] = np.radians(st[3:])
+    return MachineProgram(
+        joints=j, motion=np.full(n, motion, np.int8), feed_mode=np.full(n, feed_mode, np.int16),
+        feed=np.full(n, feed), line=np.arange(1, n + 1), tcp=np.full(n, tcp),
+        tool_number=np.ones(n, np.int32), start=st,
+    )
+
+
+@pytest.fixture(scope="module")
+def machine():  # type: ignore[no-untyped-def]
+    m = load_machine(MACHINE)
+    return m, kinematics_for(m)
+
+
+def _cut(stock: Stock, moves, shape) -> None:  # type: ignore[no-untyped-def]
+    stock.sweep(moves.tips, moves.moves, moves.axes, moves.block.astype(np.int32), shape)
+
+
+def test_five_axis_move_matches_dense_reference(machine) -> None:  # type: ignore[no-untyped-def]
+    m, kins = machine
+    shape = tool_shape(BALL)
+    start = [0.0, -4.0, 3.0, 0.0, 0.0]
+    program = _program([[6.0, 4.0, 2.0, -25.0, 40.0]], start=start)
+    tol = 0.01
+    moves = program_moves(program, m, kins, shape.reach, tol, start_at_first=False)
+    assert len(moves.tips) > 1  # the turning axis forced a subdivision
+    lower, upper = np.array([-10.0, -10.0, -4.0]), np.array([12.0, 10.0, 2.0])
+    swept = Stock.box(lower, upper, 0.1)
+    before = swept.volume()
+    _cut(swept, moves, shape)
+    # reference: 600 static tool instances on the true joint-interpolated motion (the
+    # tool's farthest point moves < 25 mm: steps < 0.05 mm, scallops < 1e-4 mm)
+    frac = np.linspace(0.0, 1.0, 600)
+    j0 = np.array(start)
+    j0[3:] = np.radians(j0[3:])
+    joints = j0 + frac[:, None] * (program.joints[0] - j0)
+    tips, axes = kins.forward(joints)
+    reference = Stock.box(lower, upper, 0.1)
+    reference.sweep(tips, np.zeros_like(tips), axes, np.zeros(len(tips), np.int32), shape)
+    removed, expected = before - swept.volume(), before - reference.volume()
+    print(f"5-axis block: swept {removed:.3f} mm3, reference {expected:.3f} mm3")
+    # swept and true envelopes differ by <= tol: the volume by <= tol * envelope area
+    area = 2 * math.pi * 3.0 * 30.0 + 4 * math.pi * 9.0
+    assert abs(removed - expected) <= tol * area
+    assert removed == pytest.approx(expected, rel=3e-3)
+    # the same block swept as one straight fixed-axis move is measurably worse
+    crude = Stock.box(lower, upper, 0.1)
+    crude.sweep(moves.tips[:1], (moves.tips[-1] + moves.moves[-1] - moves.tips[0])[None],
+                moves.axes[len(moves.axes) // 2][None], np.zeros(1, np.int32), shape)
+    assert abs(before - crude.volume() - expected) > 3 * abs(removed - expected)
+
+
+def test_subdivision_meets_the_bound(machine) -> None:  # type: ignore[no-untyped-def]
+    m, kins = machine
+    program = _program([[10.0, 5.0, 20.0, -30.0, 90.0], [0.0, 0.0, 30.0, -10.0, 0.0]])
+    reach, tol = 20.0, 0.02
+    moves = program_moves(program, m, kins, reach, tol, start_at_first=False)
+    # check against the true motion at 9 points of every sub-move
+    for q in np.linspace(0.0, 1.0, 9):
+        pos = moves.tips + q * moves.moves
+        # true pose at the same fraction of the block
+        counts = np.bincount(moves.block)
+        index = np.arange(len(moves.block)) - np.repeat(np.cumsum(counts) - counts, counts)
+        frac = (index + q) / counts[moves.block]
+        joints_all = np.vstack([program.start, program.joints])
+        j = joints_all[moves.block] + frac[:, None] * (joints_all[moves.block + 1]
+                                                        - joints_all[moves.block])
+        tip, axis = kins.forward(j)
+        angle = np.arccos(np.clip(np.sum(axis * moves.axes, axis=1), -1, 1))
+        error = np.linalg.norm(pos - tip, axis=1) + reach * angle
+        assert error.max() <= 1.05 * tol
+
+
+def test_tcp_block_keeps_the_tip_on_the_programmed_line(machine) -> None:  # type: ignore[no-untyped-def]
+    m, kins = machine
+    program = _program([[0.0, 0.0, 10.0, 0.0, 0.0], [5.0, 0.0, 10.0, -40.0, 60.0]], tcp=True)
+    moves = program_moves(program, m, kins, 15.0, 0.01)
+    second = moves.block == 1
+    assert second.sum() > 1
+    tips = moves.tips[second]
+    assert np.allclose(tips[:, 1:], [0.0, 10.0], atol=1e-9)  # on the straight line
+    assert np.all(np.diff(tips[:, 0]) > 0)
+    assert np.allclose(moves.end_tip[1], [5.0, 0.0, 10.0])
+    # the axis at the end: A -40 deg tilts it by 40 deg from +Z
+    assert math.degrees(math.acos(moves.end_axis[1][2])) == pytest.approx(40.0)
+
+
+def test_block_durations(machine) -> None:  # type: ignore[no-untyped-def]
+    m, kins = machine
+    g94 = _program([[0, 0, 0, 0, 0], [10.0, 0, 0, 0, 0]], feed=600.0)
+    moves = program_moves(g94, m, kins, 10.0, 0.01, start_at_first=False)
+    assert moves.duration == pytest.approx([0.0, 1.0])  # 10 mm at 600 mm/min
+    g93 = _program([[0, 0, 0, 0, 0], [10.0, 0, 0, -10, 0]], feed_mode=int(FeedMode.INVERSE_TIME),
+                   feed=2.0)
+    moves = program_moves(g93, m, kins, 10.0, 0.01, start_at_first=False)
+    assert moves.duration == pytest.approx([30.0, 30.0])  # F2: half a minute per block
+    rapid = _program([[0, 0, 0, 0, 0], [0, 0, 40.0, 0, 0]], motion=Motion.RAPID)
+    moves = program_moves(rapid, m, kins, 10.0, 0.01, start_at_first=False)
+    assert moves.duration[1] == pytest.approx(40.0 / 20.0)  # 1200 mm/min = 20 mm/s
+
+
+def test_overtravel_is_found_inside_a_tcp_block(machine) -> None:  # type: ignore[no-untyped-def]
+    m, kins = machine
+    program = _program([[0.0, 0.0, 10.0, 0.0, 0.0], [0.0, 0.0, 10.0, 60.0, 0.0]], tcp=True)
+    moves = program_moves(program, m, kins, 10.0, 0.01)
+    found = [f for f in moves.overtravel if f["axis"] == "A"]
+    assert found and found[0]["block"] == 1
+    assert found[0]["limit"] == pytest.approx(50.0)

@@ -1,0 +1,243 @@
+"""Tri-dexel material removal against closed forms and brute-force references."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from cam.tools import Segment, Tool
+from cam.verify.kernels import swept_interval
+from cam.verify.stock import Stock
+from cam.verify.toolshape import frustum, sphere_cap, tool_shape
+
+UP = np.array([0.0, 0.0, 1.0])
+
+
+def _tool(shape: str, diameter: float, corner: float | None = None, flute: float = 12.0) -> Tool:
+    radius = 0.5 * diameter
+    corner = {"ball": radius, "flat": 0.0}.get(shape, corner)
+    assert corner is not None
+    return Tool(
+        name=f"{shape}{diameter:g}", number=1, shape=shape, diameter=diameter,
+        corner_radius=corner, flute_length=flute, shank_diameter=diameter, stickout=30.0,
+        holder=(Segment("holder", 30.0, 50.0, 8.0, 10.0),),
+    )
+
+
+def _polyline(stock: Stock, tool: Tool, points: list[tuple[float, float, float]]) -> None:
+    pts = np.asarray(points, dtype=np.float64)
+    n = len(pts) - 1
+    stock.sweep(pts[:-1], np.diff(pts, axis=0), np.tile(UP, (n, 1)),
+                np.arange(n, dtype=np.int32), tool_shape(tool))
+
+
+def ball_slot_volume(radius: float, length: float, e: float) -> float:
+    """Ball-end slot below a flat top: centre line ``e`` below the top, ``length`` long.
+
+    Cross-section: half disc + rectangle 2R x e; ends: quarter spheres + half cylinders
+    of height e (the plunge at the start lies inside the end cap).
+    """
+    r = radius
+    section = 0.5 * math.pi * r * r + 2.0 * r * e
+    ends = 2.0 * (math.pi * r**3 / 3.0 + 0.5 * math.pi * r * r * e)
+    return length * section + ends
+
+
+@pytest.mark.parametrize(("pitch", "tolerance"), [(0.1, 0.005), (0.05, 0.002)])
+def test_ball_slot_matches_closed_form(pitch: float, tolerance: float) -> None:
+    r, length, e = 3.0, 12.0, 1.0
+    stock = Stock.box([-12.0, -6.0, -8.0], [12.0, 6.0, 0.0], pitch)
+    before = stock.volume()
+    assert before == pytest.approx(24 * 12 * 8, rel=1e-12)
+    tip_z = -e - r
+    _polyline(stock, _tool("ball", 2 * r), [(-6, 0, 5.0), (-6, 0, tip_z), (6, 0, tip_z)])
+    removed = before - stock.volume()
+    expected = ball_slot_volume(r, length, e)
+    assert removed == pytest.approx(expected, rel=tolerance)
+
+
+def pocket_volume(width: float, height: float, radius: float, depth: float) -> float:
+    """Flat-end pocket: tool centres fill a w x h rectangle -> rounded rectangle x depth."""
+    area = (width + 2 * radius) * (height + 2 * radius) - (4.0 - math.pi) * radius**2
+    return area * depth
+
+
+@pytest.mark.parametrize(("pitch", "tolerance"), [(0.1, 0.005), (0.05, 0.002)])
+def test_flat_pocket_matches_closed_form(pitch: float, tolerance: float) -> None:
+    r, depth = 2.0, 1.5
+    w, h = 8.0, 5.0
+    stock = Stock.box([-10.0, -8.0, -5.0], [10.0, 8.0, 0.0], pitch)
+    before = stock.volume()
+    z = -depth
+    # plunge in the middle, zig-zag rows 2.5 mm apart (< 2R: no islands), then the contour
+    path = [(0, 0, 3.0), (0, 0, z), (-4, -2.5, z)]
+    for i, y in enumerate(np.arange(-2.5, 2.51, 2.5)):
+        xs = (-4, 4) if i % 2 == 0 else (4, -4)
+        path += [(xs[0], y, z), (xs[1], y, z)]
+    path += [(-4, 2.5, z), (-4, -2.5, z), (4, -2.5, z), (4, 2.5, z), (-4, 2.5, z), (-4, 2.5, 3.0)]
+    _polyline(stock, _tool("flat", 2 * r), path)
+    removed = before - stock.volume()
+    assert removed == pytest.approx(pocket_volume(w, h, r, depth), rel=tolerance)
+
+
+def test_bullnose_slot_within_profile_bound() -> None:
+    """Bull-nose slot below a flat top; the corner frusta stay within the stated bound."""
+    r, rc, e, length = 3.0, 1.0, 0.5, 10.0
+    tool = _tool("bullnose", 2 * r, corner=rc)
+    shape = tool_shape(tool)
+    assert 0 < shape.profile_error < 0.005
+    stock = Stock.box([-10.0, -6.0, -4.0], [10.0, 6.0, 0.0], 0.05)
+    before = stock.volume()
+    depth = rc + e
+    _polyline(stock, tool, [(-5, 0, 2.0), (-5, 0, -depth), (5, 0, -depth)])
+    # section: bottom flat 2(R - rc) wide, two quarter discs rc, rectangle 2R x e above
+    section = 2 * (r - rc) * rc + 0.5 * math.pi * rc * rc + 2 * r * e
+    # ends: half of the tool solid of revolution below the top surface
+    lower = (math.pi * (r - rc) ** 2 * rc + math.pi**2 * (r - rc) * rc * rc / 2
+             + 2 / 3 * math.pi * rc**3)
+    ends = lower + math.pi * r * r * e
+    expected = length * section + ends
+    perimeter_area = length * (2 * r + 2 * depth) + 2 * math.pi * r * depth
+    bound = shape.profile_error * perimeter_area
+    assert abs(before - stock.volume() - expected) <= bound + 0.002 * expected
+
+
+def test_initial_stock_volumes_and_save_load(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    cyl = Stock.cylinder(20.0, 10.0, 0.1, bore=3.0)
+    assert cyl.volume() == pytest.approx(math.pi * (100 - 9) * 10, rel=2e-3)
+    _polyline(cyl, _tool("ball", 4.0), [(-12, 0, 12), (-12, 0, 7), (12, 0, 7)])
+    saved = cyl.save(tmp_path / "s.npz")
+    back = Stock.load(saved)
+    assert back.volume() == pytest.approx(cyl.volume(), rel=1e-12)
+    for a, b in zip(cyl.grids, back.grids, strict=True):
+        pa, _, ma = a.ends()
+        pb, _, mb = b.ends()
+        np.testing.assert_array_equal(pa, pb)
+        np.testing.assert_array_equal(ma, mb)
+
+
+def test_mesh_stock_matches_analytic_cylinder() -> None:
+    import trimesh
+
+    mesh = trimesh.creation.revolve(
+        np.array([[3.0, 0.0], [10.0, 0.0], [10.0, 10.0], [3.0, 10.0], [3.0, 0.0]]), sections=720
+    )
+    from_mesh = Stock.from_mesh(mesh.vertices, mesh.faces, 0.1)
+    analytic = Stock.cylinder(20.0, 10.0, 0.1, bore=3.0)
+    assert from_mesh.volume() == pytest.approx(mesh.volume, rel=2e-3)
+    assert from_mesh.volume() == pytest.approx(analytic.volume(), rel=2e-3)
+
+
+def test_cut_ends_remember_their_move() -> None:
+    stock = Stock.box([-5.0, -5.0, -5.0], [5.0, 5.0, 0.0], 0.25)
+    shape = tool_shape(_tool("flat", 2.0))
+    stock.sweep(np.array([[0.0, 0.0, -1.0]]), np.zeros((1, 3)), UP[None], np.array([7], np.int32),
+                shape)
+    points, normals, moves = stock.grids[2].ends()
+    tops = (normals[:, 2] > 0) & (np.hypot(points[:, 0], points[:, 1]) < 0.9)
+    assert np.all(moves[tops] == 7)
+    assert np.allclose(points[tops, 2], -1.0)
+    assert np.all(moves[(normals[:, 2] < 0)] == -1)
+
+
+def _brute_interval(prim: np.ndarray, tip: np.ndarray, move: np.ndarray, axis: np.ndarray,
+                    origin: np.ndarray, k: int) -> tuple[float, float]:
+    """Ray interval inside the swept primitive by dense sampling of s and t."""
+    ts = np.linspace(-20, 20, 4001)
+    inside = np.zeros_like(ts, dtype=bool)
+    alpha, beta, gamma, zlo, zhi = prim[:5]
+    for s in np.linspace(0.0, 1.0, 201):
+        pts = origin[None, :] + ts[:, None] * np.eye(3)[k][None, :] - tip - s * move
+        z = pts @ axis
+        perp = pts - z[:, None] * axis
+        q = np.sum(perp * perp, axis=1) + alpha * z * z + beta * z + gamma
+        inside |= (q <= 0) & (z >= zlo) & (z <= zhi)
+    if not inside.any():
+        return math.inf, -math.inf
+    return float(ts[inside].min()), float(ts[inside].max())
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    kind=st.sampled_from(["sphere", "cylinder", "cone"]),
+    seed=st.integers(0, 10_000),
+    k=st.integers(0, 2),
+)
+def test_swept_interval_matches_sampling(kind: str, seed: int, k: int) -> None:
+    rng = np.random.default_rng(seed)
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    tip = rng.uniform(-2, 2, 3)
+    move = rng.uniform(-4, 4, 3)
+    prim = {"sphere": sphere_cap(2.0, 2.0, 0.0, 2.0), "cylinder": frustum(1.0, 6.0, 2.0, 2.0),
+            "cone": frustum(2.0, 7.0, 1.0, 3.0)}[kind]
+    origin = rng.uniform(-3, 3, 3)
+    origin[k] = 0.0
+    w = origin - tip
+    zu, zd, zw = axis[k], axis @ move, axis @ w
+    e_k = np.eye(3)[k]
+    u_p, d_p, w_p = e_k - zu * axis, move - zd * axis, w - zw * axis
+    alpha, beta, gamma, zlo, zhi = prim[:5]
+    coeffs = (
+        u_p @ u_p + alpha * zu * zu,
+        -(u_p @ d_p) - alpha * zu * zd,
+        d_p @ d_p + alpha * zd * zd,
+        w_p @ u_p + alpha * zw * zu + 0.5 * beta * zu,
+        -(w_p @ d_p) - alpha * zw * zd - 0.5 * beta * zd,
+        w_p @ w_p + alpha * zw * zw + beta * zw + gamma,
+    )
+    ta, tb = swept_interval(*coeffs, zw, zu, zd, zlo, zhi, np.empty((2, 2)))
+    ra, rb = _brute_interval(prim, tip, move, axis, origin, k)
+    # t sampling plus the s sampling (1/200 of the move)
+    step = 40 / 4000 + float(np.linalg.norm(move)) / 200 + 1e-3
+    if not math.isfinite(ra):
+        assert not tb > ta or tb - ta < 2 * step
+        return
+    assert tb > ta
+    assert ta == pytest.approx(ra, abs=step)
+    assert tb == pytest.approx(rb, abs=step)
+
+
+def test_rays_through_mesh_edges_and_vertices_count_once() -> None:
+    import trimesh
+
+    box = trimesh.creation.box(extents=[2.0, 2.0, 2.0])  # face diagonals pass through rays
+    stock = Stock.from_mesh(box.vertices, box.faces, 0.4)
+    for grid in stock.grids:
+        assert grid.volume() == pytest.approx(8.0, rel=1e-12)
+        assert np.all(grid.count[grid.count > 0] == 1)
+
+
+def test_blank_profile_of_a_spec_contour() -> None:
+    from cam.verify.sources import blank_profile
+
+    t = np.linspace(0.0, 0.5 * np.pi, 30)  # a smooth shroud: quarter ellipse, z and r
+    contour = np.column_stack([24.0 - 15.0 * np.sin(t), 35.0 - 13.0 * np.cos(t)])
+    profile = blank_profile(contour, 1.0, 4.0)
+    assert profile[0].tolist() == [4.0, 0.0] and profile[-1].tolist() == [4.0, 0.0]
+    assert profile[:, 0].max() == pytest.approx(36.0)
+    assert profile[:, 1].max() == pytest.approx(25.0)
+    assert profile[2, 1] == pytest.approx(10.0, abs=1e-3)  # outlet: horizontal shroud
+    # every offset point lies 1 mm from the contour polyline (r, z)
+    line = contour[:, ::-1]
+    a, b = line[:-1], line[1:]
+    for p in profile[3:-3]:
+        t = np.clip(np.sum((p - a) * (b - a), axis=1) / np.sum((b - a) ** 2, axis=1), 0, 1)
+        gap = np.min(np.linalg.norm(p - (a + t[:, None] * (b - a)), axis=1))
+        assert gap == pytest.approx(1.0, abs=0.05)
+
+
+def test_signed_distance_of_a_box() -> None:
+    import trimesh
+
+    from cam.verify.deviation import DesignDistance
+
+    box = trimesh.creation.box(extents=[10.0, 10.0, 10.0])
+    distance = DesignDistance(box.vertices, box.faces, max_edge=2.0)
+    points = np.array([[0, 0, 6.0], [0, 0, 4.5], [7, 0, 0], [0, -5.2, 1], [6, 6, 0]])
+    expected = [1.0, -0.5, 2.0, 0.2, math.sqrt(2.0)]
+    assert distance(points) == pytest.approx(expected, abs=1e-9)
