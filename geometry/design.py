@@ -14,7 +14,7 @@ A designer describes an impeller by
 
 ``generate`` turns the parameters into arrays (``GeneratedDesign``) and
 ``write_design`` writes the spec TOML and camber CSVs a user would write by hand
-(format: docs/formats/impeller-spec.md), atomically and with deterministic number
+(format: docs/formats.md), atomically and with deterministic number
 formatting. ``load_design`` reads the TOML form of the parameters (``design.toml``).
 Angles are radians here and degrees in the files.
 """

@@ -3,7 +3,7 @@
 The public face of the CL reader (``postproc.apt_reader``, bulk GOTO scan in
 ``postproc.apt_scan``) and writer (``postproc.apt_writer``). Files are in the
 workpiece frame W, lengths in mm (inch files are converted), feeds in mm/min.
-See docs/formats/apt.md for the records read and written.
+See docs/formats.md for the records read and written.
 
 Examples
 --------

@@ -6,7 +6,7 @@ records are interpreted one by one in file order; each modal change is stored as
 GOTO arrays with ``numpy.searchsorted``. So the Python loop runs over the non-GOTO
 records only.
 
-Semantics (see docs/formats/apt.md): FEDRAT is modal; RAPID applies to the next GOTO
+Semantics (see docs/formats.md): FEDRAT is modal; RAPID applies to the next GOTO
 only; a three-number GOTO keeps the last tool axis (+Z before any); each LOADTL or
 ``$$ OPERATION/name`` (CATIA ``$$ OPERATION NAME : name``, NX ``TOOL PATH/name``)
 starts an operation once the current one has motion; fixed-orientation segments come

@@ -1,7 +1,7 @@
 """The machine model: kinematic type, pivot offsets, axis limits and dynamics (TOML).
 
 A machine is data, never code. ``load_machine`` reads and validates a machine TOML
-(format: docs/formats/machine.md) into a frozen ``Machine``; units are converted at
+(format: docs/formats.md) into a frozen ``Machine``; units are converted at
 this boundary: TOML has mm, degrees, mm/min (deg/min), mm/s^2 (deg/s^2) and
 mm/s^3 (deg/s^3); the ``Machine`` holds mm, rad and seconds.
 """
@@ -26,7 +26,7 @@ from postproc.kinematics.registry import joint_names_for
 #: Rotary axis letters; every other axis is linear.
 ROTARY_AXES = frozenset({"A", "B", "C"})
 
-#: Optional servo parameters per axis (units: docs/formats/machine.md), stored as given.
+#: Optional servo parameters per axis (units: docs/formats.md), stored as given.
 SERVO_KEYS: tuple[str, ...] = (
     "Kpp",
     "Kvp",
@@ -430,7 +430,7 @@ def load_machine(path: str | Path) -> Machine:
     Parameters
     ----------
     path : str or Path
-        The machine file (format: docs/formats/machine.md).
+        The machine file (format: docs/formats.md).
 
     Returns
     -------

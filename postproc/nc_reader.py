@@ -9,7 +9,7 @@ F and S words, G53 machine-coordinate moves (a joint move, never TCP), G28 (a no
 the end of a program, an error when motion follows it). Arcs in the XY plane are
 linearised within a chordal tolerance (``postproc.gcode_arcs``); every block keeps
 its source line. Angles come in degrees and leave as radians; inches leave as mm.
-See docs/formats/nc.md for the full list.
+See docs/formats.md for the full list.
 """
 
 from __future__ import annotations
@@ -250,7 +250,7 @@ class _Reader:
                 pass
             else:
                 raise self.error(block, f"unknown G code G{g / 10:g}", "G", f"G{g / 10:g}",
-                                 "the G codes listed in docs/formats/nc.md")
+                                 "the G codes listed in docs/formats.md")
         if motions:
             st.motion = _MOTION[motions[0]]
         return st.motion

@@ -8,7 +8,7 @@ the damper and the two servo gains; the masses come from the data sheet) so that
 exact sampled-data simulation (``cam.motion.plant.simulate``) matches the measurement.
 Parameters are fitted as logarithms, so they stay positive.
 
-CSV columns (header row, any order, comma separated; docs/formats/motion.md):
+CSV columns (header row, any order, comma separated; docs/formats.md):
 ``time_s``, ``command_position_mm`` (required), ``command_velocity_mm_s``,
 ``command_acceleration_mm_s2`` (optional: else central differences of the position),
 and ``table_acceleration_mm_s2`` or ``table_position_mm`` (the measurement).
@@ -220,7 +220,7 @@ def write_response_csv(path: str | Path, response: MeasuredResponse) -> Path:
     """Write a response CSV (the format ``read_response_csv`` reads), atomically."""
     name = "table_acceleration_mm_s2" if response.output == "acceleration" else \
         "table_position_mm"
-    lines = ["# impeller-cam measured-response CSV (docs/formats/motion.md)",
+    lines = ["# impeller-cam measured-response CSV (docs/formats.md)",
              f"time_s,command_position_mm,command_velocity_mm_s,"
              f"command_acceleration_mm_s2,{name}"]
     for t, (x, v, a), y in zip(response.time, response.command, response.measured,

@@ -259,7 +259,7 @@ def residual_modes(
 
 # --------------------------------------------------------------------------- TOML
 def plant_from_dict(data: dict[str, object], file: str | Path | None = None) -> TwoMassPlant:
-    """Validate the ``[plant]`` table of a plant TOML (see docs/formats/motion.md)."""
+    """Validate the ``[plant]`` table of a plant TOML (see docs/formats.md)."""
     table = data.get("plant")
     if not isinstance(table, dict):
         raise InputError("missing table [plant]", file=file, field="plant",

@@ -7,7 +7,7 @@ Writes into OUT/ (all or nothing, ``staged_directory``):
 * ``rough.json``: UMRs (lane, axis, ``A_deg``, ``C_deg``, area), ``collisions``
   (postures, moves, index moves), ``min_allowance_mm``, ``time_min`` (``3axis`` /
   ``5axis`` by feed, nominal), ``time_limited_min`` (with the machine's limits),
-  per-UMR times, the time breakdown by move kind (docs/formats/rough.md);
+  per-UMR times, the time breakdown by move kind (docs/formats.md);
 * ``table1.md``: the paper's Table 1 for the run.
 """
 

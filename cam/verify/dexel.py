@@ -189,7 +189,7 @@ class DexelGrid:
         return np.vstack([starts, stops]), normals, moves
 
     def to_arrays(self, prefix: str) -> dict[str, NDArray]:
-        """Compact arrays for saving (``<prefix>_...`` keys, see docs/formats/verify.md)."""
+        """Compact arrays for saving (``<prefix>_...`` keys, see docs/formats.md)."""
         slot, _ = self.slots()
         return {
             f"{prefix}_meta": np.array([self.k, self.shape[0], self.shape[1]], np.int64),

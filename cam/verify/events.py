@@ -58,7 +58,7 @@ class Event:
             raise ValueError(f"unknown event type {self.type!r}; accepted: {EVENT_TYPES}")
 
     def to_json(self) -> dict[str, Any]:
-        """JSON-ready dict (docs/formats/verify.md)."""
+        """JSON-ready dict (docs/formats.md)."""
         return {
             "type": self.type,
             "line": int(self.line),

@@ -9,7 +9,7 @@ interval lengths times h^2.
 Constructors: ``Stock.box``, ``Stock.cylinder`` (closed form), ``Stock.from_mesh``
 (any closed triangle mesh, e.g. an STL, by ray casting), ``Stock.revolved`` (a
 turned blank from a meridional profile) and ``Stock.load`` (a saved ``.npz``
-state, docs/formats/verify.md).
+state, docs/formats.md).
 """
 
 from __future__ import annotations
@@ -293,7 +293,7 @@ class Stock:
 
     # ------------------------------------------------------------------ state I/O
     def save(self, path: str | Path) -> Path:
-        """Write the state to ``path`` (``.npz``, atomically; docs/formats/verify.md)."""
+        """Write the state to ``path`` (``.npz``, atomically; docs/formats.md)."""
         import io
 
         arrays: dict[str, NDArray] = {
