@@ -14,7 +14,6 @@ Writes into OUT/ (all or nothing, ``staged_directory``):
 from __future__ import annotations
 
 import json
-import sys
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
@@ -48,6 +47,7 @@ from geometry.spec import load_spec
 from geometry.surfaces import ImpellerSurfaces, build_surfaces
 from impeller_cam.atomic import staged_directory, write_text_atomic
 from impeller_cam.errors import InputError
+from impeller_cam.progress import progress_bar
 from postproc.apt import write_apt
 from postproc.toolpath import Cutter, MoveKind, Toolpath
 
@@ -335,14 +335,6 @@ def min_allowance(result: RoughResult) -> float:
     return float(d.min() - radius)
 
 
-def _progress(enabled: bool | None) -> Any:
-    if enabled is None:
-        enabled = sys.stderr.isatty()
-    if not enabled:
-        return None
-    from rich.progress import Progress
-
-    return Progress(transient=True)
 
 
 def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
@@ -389,7 +381,7 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
     kins = kinematics_for(the_machine)
     surfaces = build_surfaces(load_spec(spec))
     eta = surfaces.spec.finishing_allowance
-    bar = _progress(progress)
+    bar = progress_bar(progress)
     with bar if bar is not None else nullcontext():
         task = bar.add_task("roughing", total=None) if bar is not None else None
 

@@ -11,7 +11,6 @@ verify.json, report.html, verify.junit.xml, stock.npz (the final stock state, th
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -27,6 +26,7 @@ from cam.verify.stock import Stock
 from cam.verify.toolshape import tool_shape
 from impeller_cam.atomic import staged_directory, write_bytes_atomic, write_text_atomic
 from impeller_cam.errors import InputError
+from impeller_cam.progress import progress_bar
 from postproc.program import Motion
 
 #: Sub-moves swept per kernel call (progress granularity).
@@ -65,14 +65,6 @@ class VerifyOptions:
     render: bool = True
 
 
-def _progress(enabled: bool | None) -> Any:
-    if enabled is None:
-        enabled = sys.stderr.isatty()
-    if not enabled:
-        return None
-    from rich.progress import Progress
-
-    return Progress(transient=True)
 
 
 def _check_inputs(programs: list[Path], resolution: float) -> None:
@@ -253,7 +245,7 @@ def run_verify(
     images: list[tuple[str, bytes]] = []
     renders: dict[str, bytes] = {}
     cycle = 0.0
-    bar = _progress(progress)
+    bar = progress_bar(progress)
     if bar is not None:
         bar.start()
     try:
