@@ -26,7 +26,8 @@ spec_path = write_design(variant, OUT / "design")  # spec.toml + camber CSVs, as
 impeller = Impeller.from_spec(spec_path)
 figures = impeller.figures
 print(f"blades {figures['blades']}, volume {figures['volume_mm3']:.0f} mm3")
-print(f"d_min {figures['d_min_mm']:.2f} mm -> largest roughing ball r_max {figures['r_max_mm']:.2f} mm")
+d_min, r_max = figures["d_min_mm"], figures["r_max_mm"]
+print(f"d_min {d_min:.2f} mm -> largest roughing ball r_max {r_max:.2f} mm")
 print(f"rule deviation {figures['rule_deviation_mm']:.3f} mm (flank-millability)")
 
 # 3. Export and use the meshes (per face role) for CAM.
