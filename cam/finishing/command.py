@@ -1,0 +1,206 @@
+"""``impeller-cam finish SPEC -m MACHINE -t TOOL -o OUT/``: five-axis finishing (M3).
+
+Writes into OUT/ (all or nothing, ``staged_directory``):
+
+* ``finish_junction.apt``, ``finish_blade.apt``, ``finish_hub.apt``: one APT CLDATA
+  file per operation (workpiece frame, mm, mm/min);
+* ``finish.json``: per path the number of points, reverse movements of A and C
+  before and after (``reversals_before`` / ``reversals_after``), ``collisions``,
+  ``min_clearance_mm``, the largest deviation of the ball centre from its ideal path,
+  and more (docs/formats.md);
+* ``plots/<path>.png``: A and C angular displacement before and after smoothing
+  (passage 0; the other passages are rotations of it and have the same curves);
+* ``scene.stl``: the collision meshes the postures were checked against.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from contextlib import nullcontext
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import trimesh
+
+from cam.collision import CollisionScene
+from cam.finishing.linking import Envelope, join_passes
+from cam.finishing.options import FinishOptions
+from cam.finishing.plan import FinishResult, plan_finishing
+from cam.finishing.plots import plot_angular_displacement
+from cam.finishing.scene import solid_meshes, surface_meshes
+from cam.tools import Tool, resolve_tool
+from geometry.spec import load_spec
+from geometry.surfaces import ImpellerSurfaces, build_surfaces
+from impeller_cam.atomic import staged_directory, write_text_atomic
+from impeller_cam.errors import InputError
+from impeller_cam.progress import progress_bar
+from postproc.apt import write_apt
+from postproc.toolpath import Cutter, Toolpath
+
+__all__ = ["SCENE_SOURCES", "finish_toolpaths", "run_finish"]
+
+SCENE_SOURCES = ("solid", "surfaces")
+#: Grid spacing of the closed-form collision meshes (``scene="surfaces"``), mm.
+SURFACE_MESH_SPACING = 1.0
+#: Paper figures quoted next to ours in finish.json.
+PAPER = {"junction_cc_points": 475, "paths": 26, "reversals_after": 0}
+
+
+def _envelope(surfaces: ImpellerSurfaces, clearance: float) -> Envelope:
+    contours = np.concatenate([surfaces.hub.contour, surfaces.shroud.contour])
+    return Envelope(float(contours[:, 1].max()) + clearance,
+                    float(contours[:, 0].max()) + clearance)
+
+
+def finish_toolpaths(result: FinishResult, surfaces: ImpellerSurfaces
+                     ) -> dict[str, tuple[Toolpath, np.ndarray]]:
+    """One linked ``Toolpath`` per operation and the mask of its link poses."""
+    tool, options = result.tool, result.options
+    feed = float(tool.feed) if tool.feed else 1000.0
+    envelope = _envelope(surfaces, options.retract_clearance_mm)
+    out = {}
+    for op, members in result.operations().items():
+        out[op] = join_passes(
+            f"finish_{op}", [(p.tip, p.axis) for p in members], envelope, feed=feed,
+            link_step=math.radians(options.link_step_deg), longest=tool.length + 500.0,
+            tool_number=tool.number, cutter=Cutter(tool.diameter, tool.corner_radius,
+                                                   tool.flute_length),
+            spindle_rpm=tool.spindle_rpm)
+    return out
+
+
+def _check_links(scene: CollisionScene, tool: Tool, toolpath: Toolpath,
+                 link: np.ndarray, options: FinishOptions) -> int:
+    """Collision-check every move into, out of or between passes; returns the count."""
+    moving = link[:-1] | link[1:]
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], moving.astype(np.int8), [0]])))
+    bad = 0
+    for start, stop in zip(edges[::2], edges[1::2], strict=True):
+        tip, axis = toolpath.tip[start:stop + 1], toolpath.axis[start:stop + 1]
+        report = scene.check_motion(tool, tip, axis, max_step_mm=options.motion_step_mm,
+                                    max_step_deg=options.motion_step_deg,
+                                    cutter_allowance=options.cutter_allowance_mm,
+                                    clearance_cap=options.clearance_exact_mm)
+        clear = np.asarray(report.clearance)
+        bad += int((report.collides | (np.isfinite(clear)
+                                       & (clear < options.clearance_mm))).sum())
+    return bad
+
+
+
+
+def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
+               library: str | Path | None = None, scene: str = "solid", plots: bool = True,
+               progress: bool | None = None, **options: Any) -> dict[str, Any]:
+    """Five-axis finishing of an impeller: APT per operation, finish.json, plots.
+
+    Parameters
+    ----------
+    spec : str or Path
+        Impeller spec TOML.
+    machine : str or Path
+        Machine TOML (its kinematics define the A and C whose reversals are removed).
+    tool : str
+        Tool name in the library (or ``library.toml:name``; see ``resolve_tool``).
+    out : str or Path
+        Output folder.
+    library : str or Path, optional
+        Tool library (default: fixtures/tools/library.toml).
+    scene : str
+        ``"solid"``: check against the meshes of the built solid (what the STL
+        export writes); ``"surfaces"``: against meshes of the closed-form surfaces
+        (no fillets; quick studies).
+    plots : bool
+        Write the angular displacement PNGs.
+    progress : bool, optional
+        Show a progress bar (default: when stderr is a terminal).
+    **options
+        Fields of ``FinishOptions`` (mm, deg).
+
+    Returns
+    -------
+    dict
+        The content of finish.json.
+
+    Raises
+    ------
+    InputError
+        Bad spec, machine, tool or option; a ball that does not fit; an unreachable
+        posture. Nothing is written then.
+    """
+    opts = FinishOptions.from_mapping(options)
+    if scene not in SCENE_SOURCES:
+        raise InputError("unknown collision scene source", field="--scene", value=scene,
+                         accepted=", ".join(SCENE_SOURCES))
+    from postproc.kinematics import kinematics_for
+    from postproc.machine import load_machine
+
+    the_tool = resolve_tool(tool, library)
+    if the_tool.shape != "ball":
+        raise InputError("five-axis finishing needs a ball-end mill", field="-t",
+                         value=the_tool.name, accepted="a tool of type 'ball'")
+    kins = kinematics_for(load_machine(machine))
+    if scene == "solid":
+        from geometry.impeller import Impeller
+
+        impeller = Impeller(load_spec(spec))
+        surfaces = impeller.surfaces
+        meshes = solid_meshes(impeller, opts.tessellation_mm)
+    else:
+        surfaces = build_surfaces(load_spec(spec))
+        meshes = surface_meshes(surfaces, SURFACE_MESH_SPACING)
+    collision = CollisionScene(meshes)
+    bar = progress_bar(progress)
+    with bar if bar is not None else nullcontext():
+        task = bar.add_task("finishing", total=None) if bar is not None else None
+
+        def report(done: int, total: int, name: str) -> None:
+            if bar is not None:
+                bar.update(task, completed=done, total=total, description=name)
+
+        result = plan_finishing(surfaces, the_tool, kins, collision, opts,
+                                scene_source=scene, progress=report)
+        toolpaths = finish_toolpaths(result, surfaces)
+        link_collisions = {op: _check_links(collision, the_tool, tp, link, opts)
+                           for op, (tp, link) in toolpaths.items()}
+    summary = result.summary()
+    entries = summary.pop("path_entries")
+    with staged_directory(out) as stage:
+        operations = {}
+        for op, (toolpath, link) in toolpaths.items():
+            name = f"finish_{op}.apt"
+            write_apt(stage / name, [toolpath],
+                      header=f"impeller-cam finish: {op}, tool {the_tool.name}")
+            operations[op] = {"apt": name, "paths": sum(e["operation"] == op for e in entries),
+                              "poses": len(toolpath), "link_poses": int(link.sum()),
+                              "link_collisions": link_collisions[op]}
+        if plots:
+            for entry, path in zip(entries, result.paths, strict=True):
+                if path.path.passage == 0:
+                    png = f"plots/{path.path.name}.png"
+                    plot_angular_displacement(path.joints_before, path.joints_after,
+                                              stage / png, path.path.name)
+                    entry["plot"] = png
+        merged = trimesh.util.concatenate(list(meshes.values()))
+        assert isinstance(merged, trimesh.Trimesh)
+        stl = merged.export(file_type="stl")
+        assert isinstance(stl, bytes)
+        (stage / "scene.stl").write_bytes(stl)
+        document = {
+            "format": "impeller-cam finish 1",
+            "spec": str(spec),
+            "machine": str(machine),
+            "tool": {"name": the_tool.name, "number": the_tool.number,
+                     "diameter_mm": the_tool.diameter},
+            "scene": scene,
+            "options": opts.as_dict(),
+            "paper": PAPER,
+            "summary": summary,
+            "link_collisions": int(sum(link_collisions.values())),
+            "operations": operations,
+            "paths": entries,
+        }
+        write_text_atomic(stage / "finish.json", json.dumps(document, indent=2) + "\n")
+    return document

@@ -1,0 +1,160 @@
+"""Interference check and the paper's remedy (M3 steps 3 and 6-8, eq. 7).
+
+A posture *interferes* when any tool part (the ball shrunk by the cutter
+allowance, the flutes, the neck/shank, the holder) touches the part, or when the
+shank and holder come closer than the required clearance. The motion between
+consecutive postures is checked by subdivision (``CollisionScene.check_motion``);
+its bound (how much closer the tool may come between sub-samples than reported)
+is reported with the result.
+
+Remedy: increase the C angle by dC, step by step, "away from the blade", and
+recompute the tool tips so the ball centre stays on its path; stop at the first
+step with no interference. The turn is applied to the whole path at once: a
+constant C offset rotates every axis about the impeller axis, leaves A unchanged
+and adds the same constant to every C, so it cannot bring back a reverse movement.
+The total turn may not exceed ``Cmax`` (eq. 7, the smallest over the path). When
+the path still interferes at Cmax, the tool is too large for it: the result says
+"smaller tool needed" and names the points.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam.finishing.options import FinishOptions
+from cam.finishing.posture import rotate_about_z
+from cam.tools import Tool
+
+if TYPE_CHECKING:
+    from cam.collision import CollisionScene
+
+__all__ = ["InterferenceResult", "check_path", "resolve_interference"]
+
+Array = NDArray[np.float64]
+
+
+@dataclass
+class InterferenceResult:
+    """Collision state of one path's postures.
+
+    Attributes
+    ----------
+    tip, axis : (n, 3) float64
+        Final postures (after any C increase).
+    delta_c : float
+        C increase applied to the whole path, rad (0 when none was needed).
+    steps : int
+        Remedy steps tried.
+    collides : (n,) bool
+        Posture touches the part or the shank/holder clearance is below the limit.
+    motion_collides : (n - 1,) bool
+        Same for the motion between posture i and i + 1 (sub-sampled).
+    clearance : (n,) float64
+        Shank and holder clearance per posture, mm (NaN for a bare cutter); exact up
+        to ``options.clearance_exact_mm``, a lower bound above it.
+    hit_role : list of (str or None)
+        Part role touched first per posture.
+    motion_bound : float
+        The tool may come this much closer to the part between motion sub-samples
+        than the motion check reports, mm.
+    c_max : float
+        Largest C increase eq. 7 allows on this path, rad.
+    """
+
+    tip: Array
+    axis: Array
+    delta_c: float
+    steps: int
+    collides: NDArray[np.bool_]
+    motion_collides: NDArray[np.bool_]
+    clearance: Array
+    hit_role: list[str | None]
+    motion_bound: float
+    c_max: float
+    checks: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def interfering_points(self) -> NDArray[np.intp]:
+        """Indices of postures (or of motion starts) that still interfere."""
+        bad = self.collides.copy()
+        bad[:-1] |= self.motion_collides
+        return np.asarray(np.flatnonzero(bad), dtype=np.intp)
+
+    @property
+    def smaller_tool_needed(self) -> bool:
+        """True when the path still interferes at Cmax."""
+        return bool(self.interfering_points.size)
+
+
+def check_path(scene: CollisionScene, tool: Tool, tip: Array, axis: Array,
+               options: FinishOptions) -> InterferenceResult:
+    """Check the postures and the motion between them (no remedy)."""
+    report = scene.check_postures(tool, tip, axis,
+                                  cutter_allowance=options.cutter_allowance_mm,
+                                  clearance_cap=options.clearance_exact_mm)
+    clearance = np.asarray(report.clearance, dtype=np.float64)
+    collides = np.asarray(report.collides, dtype=bool) | (
+        np.isfinite(clearance) & (clearance < options.clearance_mm))
+    if len(tip) > 1:
+        motion = scene.check_motion(tool, tip, axis, max_step_mm=options.motion_step_mm,
+                                    max_step_deg=options.motion_step_deg,
+                                    cutter_allowance=options.cutter_allowance_mm,
+                                    clearance_cap=options.clearance_exact_mm)
+        mclear = np.asarray(motion.clearance, dtype=np.float64)
+        motion_collides = np.asarray(motion.collides, dtype=bool) | (
+            np.isfinite(mclear) & (mclear < options.clearance_mm))
+        bound = float(motion.bound)
+    else:
+        motion_collides = np.zeros(0, dtype=bool)
+        bound = 0.0
+    checks = {"postures": len(tip), **{f"posture_{k}": int(v) for k, v in report.checks.items()}}
+    return InterferenceResult(tip, axis, 0.0, 0, collides, motion_collides, clearance,
+                              list(report.hit_role), bound, math.inf, checks)
+
+
+def resolve_interference(scene: CollisionScene, tool: Tool, centre: Array, axis: Array,
+                         sign: float, c_max: Array, options: FinishOptions
+                         ) -> InterferenceResult:
+    """Check a path and, if it interferes, raise C by dC steps up to Cmax (eq. 7).
+
+    Parameters
+    ----------
+    centre : (n, 3) float64
+        Ball centres (kept: tips are ``centre - R axis``).
+    axis : (n, 3) float64
+        Unit tool axes before the remedy.
+    sign : float
+        Sense of "away from the blade" about +Z (+1 / -1).
+    c_max : (n,) float64
+        Eq. 7 per point, rad; the path's limit is the smallest.
+
+    Returns
+    -------
+    InterferenceResult
+        The first interference-free step, or (still interfering) the step with the
+        fewest interfering postures up to Cmax.
+    """
+    radius = tool.radius
+    limit = float(np.min(c_max)) if len(c_max) else 0.0
+    best = check_path(scene, tool, centre - radius * axis, axis, options)
+    best.c_max = limit
+    if not best.smaller_tool_needed:
+        return best
+    step = math.radians(options.delta_c_deg)
+    k = 0
+    while (k + 1) * step <= limit + 1e-12:
+        k += 1
+        turned = rotate_about_z(axis, sign * k * step)
+        trial = check_path(scene, tool, centre - radius * turned, turned, options)
+        trial.delta_c, trial.steps, trial.c_max = k * step, k, limit
+        if trial.interfering_points.size < best.interfering_points.size:
+            best = trial
+        if not trial.smaller_tool_needed:
+            return trial
+    best.steps = k
+    return best

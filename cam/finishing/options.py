@@ -1,0 +1,166 @@
+"""Options of the five-axis finishing (M3), one validated frozen dataclass.
+
+Angles are degrees here (they are user options at the CLI boundary) and converted
+to radians where they are used; lengths are mm.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+from typing import Any
+
+from impeller_cam.errors import InputError
+from impeller_cam.tolerances import DEFAULT_TOLERANCES
+
+__all__ = ["FinishOptions", "scallop_stepover"]
+
+
+def scallop_stepover(radius: float, scallop: float) -> float:
+    """Stepover of a ball-end mill for a scallop height on a flat surface, mm.
+
+    ``w = 2 sqrt(h (d - h))`` with ``d = 2 R`` the tool diameter and ``h`` the
+    allowed scallop height (M4; exact for a plane: the two ball circles of radius R
+    at distance w meet at height h above the surface).
+
+    Parameters
+    ----------
+    radius : float
+        Ball radius R, mm.
+    scallop : float
+        Allowed scallop height h, mm, ``0 < h < R``.
+    """
+    if not 0.0 < scallop < radius:
+        raise InputError("scallop height must be positive and below the ball radius",
+                         field="scallop_mm", value=scallop,
+                         accepted=f"0 < h < {radius:g} mm")
+    return 2.0 * math.sqrt(scallop * (2.0 * radius - scallop))
+
+
+@dataclass(frozen=True)
+class FinishOptions:
+    """Everything the finishing run can be told (defaults follow the papers).
+
+    Attributes
+    ----------
+    point_spacing_mm : float
+        Largest distance between consecutive cutter-centre points, mm.
+    scallop_mm : float
+        Allowed scallop height of the blade-side and hub passes, mm.
+    c_tilt_deg : float
+        Initial rotation of the ruling axis about the C (impeller) axis away from
+        the blade, deg (the paper: "about 1 ~ 2 degrees").
+    min_normal_angle_deg : float
+        Smallest angle between the tool axis and the contact normal, deg; below it
+        the axis is leaned in the feed direction (the ball tip has no cutting speed).
+    max_lead_deg, max_tilt_deg : float
+        Limits of the lead (in the feed plane) and tilt (across it) of the axis
+        from the hub contact normal, deg; violations are reported, never clamped.
+    basis_functions : int
+        Cubic B-spline basis functions of the least-squares smoothing (paper: 4).
+    phi_l_deg : float
+        Smallest shift phi_L of a reversed increment, deg (the shift is at least
+        the reversed increment itself, so the shifted curve moves one way).
+    max_smoothing_iterations : int
+        Shift-and-smooth rounds before the monotone least-squares fallback.
+    reversal_deadband_deg : float
+        Increments of A or C smaller than this do not count as movements, deg.
+    linear_deadband_mm : float
+        The same for X, Y, Z, mm.
+    delta_c_deg : float
+        Step dC of the interference remedy (eq. 7 procedure), deg.
+    cutter_allowance_mm : float
+        The ball is checked shrunk by this much so that it may touch the surfaces
+        it cuts (must exceed the scene tessellation error), mm.
+    clearance_mm : float
+        Required clearance of shank and holder from the part, mm.
+    clearance_exact_mm : float
+        Clearances up to this are exact (fcl distance); larger ones are reported as
+        a guaranteed lower bound (at least this), which saves most distance queries.
+        Must be at least ``clearance_mm``.
+    motion_step_mm, motion_step_deg : float
+        Subdivision of the motion between consecutive postures for the continuous
+        collision check (bound reported in finish.json).
+    retract_clearance_mm : float
+        Links retract along the tool axis until the tip is this far outside the
+        shroud envelope, mm.
+    link_step_deg : float
+        Largest rotation about the impeller axis between link points, deg.
+    passages : int or None
+        Number of passages to machine (default all; the others are rotations).
+    blade_passes, hub_passes : bool
+        Generate the blade-side and hub passes (junction paths always).
+    tessellation_mm : float
+        Tessellation of the collision meshes, mm.
+    """
+
+    point_spacing_mm: float = 0.25
+    scallop_mm: float = 0.02
+    c_tilt_deg: float = 1.5
+    min_normal_angle_deg: float = 5.0
+    max_lead_deg: float = 45.0
+    max_tilt_deg: float = 80.0
+    basis_functions: int = 4
+    phi_l_deg: float = 0.01
+    max_smoothing_iterations: int = 20
+    reversal_deadband_deg: float = 1e-5
+    linear_deadband_mm: float = 1e-5
+    delta_c_deg: float = 1.0
+    cutter_allowance_mm: float = 0.05
+    clearance_mm: float = DEFAULT_TOLERANCES.clearance
+    clearance_exact_mm: float = 3.0
+    motion_step_mm: float = 0.5
+    motion_step_deg: float = 0.5
+    retract_clearance_mm: float = 5.0
+    link_step_deg: float = 5.0
+    passages: int | None = None
+    blade_passes: bool = True
+    hub_passes: bool = True
+    tessellation_mm: float = DEFAULT_TOLERANCES.tessellation
+
+    def __post_init__(self) -> None:
+        positive = ("point_spacing_mm", "scallop_mm", "min_normal_angle_deg", "max_lead_deg",
+                    "max_tilt_deg", "phi_l_deg", "reversal_deadband_deg",
+                    "linear_deadband_mm", "delta_c_deg", "motion_step_mm",
+                    "motion_step_deg", "retract_clearance_mm", "link_step_deg",
+                    "tessellation_mm")
+        for name in positive:
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise InputError("must be a positive number", field=name, value=value,
+                                 accepted="a finite number > 0")
+        for name in ("c_tilt_deg", "cutter_allowance_mm", "clearance_mm"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+                raise InputError("must be a number >= 0", field=name, value=value,
+                                 accepted="a finite number >= 0")
+        if not self.clearance_exact_mm >= self.clearance_mm:
+            raise InputError("must be at least clearance_mm", field="clearance_exact_mm",
+                             value=self.clearance_exact_mm,
+                             accepted=f">= {self.clearance_mm:g} mm")
+        if not isinstance(self.basis_functions, int) or self.basis_functions < 4:
+            raise InputError("a cubic B-spline needs at least 4 basis functions",
+                             field="basis_functions", value=self.basis_functions,
+                             accepted="an integer >= 4")
+        if not isinstance(self.max_smoothing_iterations, int) or \
+                self.max_smoothing_iterations < 1:
+            raise InputError("must be a positive integer", field="max_smoothing_iterations",
+                             value=self.max_smoothing_iterations, accepted="an integer >= 1")
+        if self.passages is not None and (not isinstance(self.passages, int)
+                                          or self.passages < 1):
+            raise InputError("must be a positive integer", field="passages",
+                             value=self.passages, accepted="an integer >= 1 or none (all)")
+
+    @classmethod
+    def from_mapping(cls, values: dict[str, Any]) -> FinishOptions:
+        """Build from keyword options, naming an unknown key in an ``InputError``."""
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(values) - known)
+        if unknown:
+            raise InputError("unknown finishing option", field=unknown[0],
+                             value=values[unknown[0]], accepted=", ".join(sorted(known)))
+        return cls(**values)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The options as a JSON-ready dict (boundary units: mm, deg)."""
+        return asdict(self)

@@ -1,0 +1,365 @@
+"""The finishing procedure of M3, path by path, and its result.
+
+Per cutter-centre path (``paths``): initial postures (``posture``), machine joints
+from the machine's inverse kinematics, reverse movements of A and C removed
+(``reversals``; X, Y, Z reversals reported), tool tips recomputed from the
+unchanged ball centres, interference checked and remedied (``interference``).
+``plan_finishing`` returns a ``FinishResult``; ``summary`` is what finish.json holds
+(docs/formats.md).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam.finishing.interference import InterferenceResult, resolve_interference
+from cam.finishing.options import FinishOptions, scallop_stepover
+from cam.finishing.passes import passage_paths
+from cam.finishing.paths import CutterPath, blade_distance, rotate_path
+from cam.finishing.posture import (
+    angle_between,
+    c_max,
+    enforce_normal_angle,
+    initial_axes,
+    lead_tilt,
+    rotate_about_z,
+)
+from cam.finishing.reversals import (
+    SmoothingResult,
+    count_reversals,
+    reversal_points,
+    smooth_monotone,
+)
+from cam.tools import Tool
+from geometry.revolved import RevolvedSurface
+from geometry.surfaces import ImpellerSurfaces
+from impeller_cam.errors import InputError
+from postproc.kinematics import Kinematics
+
+if TYPE_CHECKING:
+    from cam.collision import CollisionScene
+
+__all__ = [
+    "FinishResult",
+    "PathResult",
+    "finish_path",
+    "junction_errors",
+    "plan_finishing",
+    "remove_reversals",
+    "reversal_counts",
+]
+
+Array = NDArray[np.float64]
+#: Outer rounds (smooth -> inverse kinematics -> count) of the reversal removal.
+_OUTER_ROUNDS = 3
+ROTARY = ("A", "C")
+LINEAR = ("X", "Y", "Z")
+
+
+def reversal_counts(joints: Array, options: FinishOptions) -> dict[str, int]:
+    """Reverse movements per axis of ``(n, 5)`` joints (X Y Z mm, A C rad)."""
+    angular = math.radians(options.reversal_deadband_deg)
+    out = {name: count_reversals(joints[:, i], options.linear_deadband_mm)
+           for i, name in enumerate(LINEAR)}
+    out.update({name: count_reversals(joints[:, 3 + i], angular)
+                for i, name in enumerate(ROTARY)})
+    return out
+
+
+@dataclass
+class PathResult:
+    """One finished path.
+
+    Attributes
+    ----------
+    path : CutterPath
+        The ideal cutter-centre path.
+    tip, axis : (n, 3) float64
+        Final postures.
+    joints_before, joints_after : (n, 5) float64
+        Machine joints (X Y Z mm, A C rad) of the initial and final postures.
+    reversals_before, reversals_after : dict
+        Reverse movements per axis, ``{"X", "Y", "Z", "A", "C"}``.
+    smoothing : dict of str to SmoothingResult
+        What the smoothing did to A and C.
+    interference : InterferenceResult
+    centre_deviation : float
+        Largest distance of the final ball centre ``tip + R axis`` from the ideal
+        centre, mm.
+    junction_error : dict or None
+        Junction paths: largest ``| distance to hub - R |`` and ``| distance to blade - R |``.
+    lead, tilt : (n,) float64
+        Lead and tilt from the contact normal, rad (hub-contact paths; NaN otherwise).
+    normal_angle : (n,) float64
+        Angle between axis and contact normal, rad.
+    """
+
+    path: CutterPath
+    tip: Array
+    axis: Array
+    joints_before: Array
+    joints_after: Array
+    reversals_before: dict[str, int]
+    reversals_after: dict[str, int]
+    reversal_points_before: dict[str, list[int]]
+    smoothing: dict[str, SmoothingResult]
+    interference: InterferenceResult
+    centre_deviation: float
+    junction_error: dict[str, float] | None
+    lead: Array
+    tilt: Array
+    normal_angle: Array
+
+    def summary(self, options: FinishOptions) -> dict[str, Any]:
+        """This path's entry of finish.json (mm, deg)."""
+        inter = self.interference
+        clear = inter.clearance[np.isfinite(inter.clearance)]
+        hub_contact = self.path.operation in ("junction", "hub")
+        limits_lead = np.abs(self.lead) > math.radians(options.max_lead_deg)
+        limits_tilt = np.abs(self.tilt) > math.radians(options.max_tilt_deg)
+        return {
+            "name": self.path.name,
+            "operation": self.path.operation,
+            "passage": self.path.passage,
+            "points": len(self.path),
+            "reversals_before": {k: self.reversals_before[k] for k in ROTARY},
+            "reversals_after": {k: self.reversals_after[k] for k in ROTARY},
+            "linear_reversals_before": {k: self.reversals_before[k] for k in LINEAR},
+            "linear_reversals_after": {k: self.reversals_after[k] for k in LINEAR},
+            "reversal_points_before": self.reversal_points_before,
+            "smoothing": {
+                k: {"rounds": s.rounds, "method": s.method,
+                    "phi_l_deg": [round(math.degrees(p), 6) for p in s.phi_l],
+                    "max_change_deg": round(float(np.degrees(np.max(np.abs(
+                        self.joints_after[:, 3 + i] - self.joints_before[:, 3 + i])))), 6)}
+                for i, (k, s) in enumerate(self.smoothing.items())
+            },
+            "collisions": int(inter.collides.sum()),
+            "motion_collisions": int(inter.motion_collides.sum()),
+            "motion_bound_mm": round(inter.motion_bound, 6),
+            "min_clearance_mm": None if clear.size == 0 else round(float(clear.min()), 4),
+            "max_centre_deviation_mm": float(f"{self.centre_deviation:.3e}"),
+            "junction_distance_error_mm": None if self.junction_error is None else {
+                k: float(f"{v:.3e}") for k, v in self.junction_error.items()},
+            "delta_c_deg": round(math.degrees(inter.delta_c), 6),
+            "c_max_deg": None if not math.isfinite(inter.c_max)
+            else round(math.degrees(inter.c_max), 4),
+            "smaller_tool_needed": inter.smaller_tool_needed,
+            "interfering_points": inter.interfering_points.tolist(),
+            "min_normal_angle_deg": round(float(np.degrees(self.normal_angle.min())), 4),
+            "max_lead_deg": round(float(np.degrees(np.abs(self.lead).max())), 4)
+            if hub_contact else None,
+            "max_tilt_deg": round(float(np.degrees(np.abs(self.tilt).max())), 4)
+            if hub_contact else None,
+            "lead_tilt_violations": int((limits_lead | limits_tilt).sum()) if hub_contact else 0,
+            "normal_angle_violations": int((self.normal_angle < math.radians(
+                options.min_normal_angle_deg) - 1e-9).sum()),
+        }
+
+
+def _path_parameter(centre: Array) -> Array:
+    """Normalised arc length of the ball centres, strictly increasing in [0, 1]."""
+    step = np.linalg.norm(np.diff(centre, axis=0), axis=1)
+    step = np.maximum(step, 1e-9 * max(float(step.max()), 1.0))
+    arc = np.concatenate([[0.0], np.cumsum(step)])
+    return np.asarray(arc / arc[-1])
+
+
+def _inverse(kins: Kinematics, tip: Array, axis: Array, name: str) -> Array:
+    try:
+        return kins.inverse(tip, axis)
+    except InputError as error:
+        raise InputError(f"path {name}: {error}", field="machine",
+                         accepted="a machine whose axes reach every finishing posture") \
+            from error
+
+
+def remove_reversals(centre: Array, axis: Array, joints: Array, kins: Kinematics,
+                     radius: float, options: FinishOptions, name: str = "path"
+                     ) -> tuple[Array, Array, dict[str, SmoothingResult]]:
+    """Smooth A and C until monotone; new axes from the forward kinematics.
+
+    The ball centres are kept: the tips are ``centre - R axis`` for the new axes.
+
+    Returns
+    -------
+    axis : (n, 3) float64
+    joints : (n, 5) float64
+        Joints of the new postures (inverse kinematics, as the post will compute them).
+    smoothing : dict
+        ``{"A": SmoothingResult, "C": SmoothingResult}`` of the last round that changed
+        the axis (``method == "none"`` when nothing was needed).
+    """
+    t = _path_parameter(centre)
+    deadband = math.radians(options.reversal_deadband_deg)
+    done = {k: SmoothingResult(joints[:, 3 + i].copy(), 0, [], "none")
+            for i, k in enumerate(ROTARY)}
+    for _ in range(_OUTER_ROUNDS):
+        counts = [count_reversals(joints[:, 3 + i], deadband) for i in range(2)]
+        if not any(counts):
+            break
+        smoothed = joints.copy()
+        for i, key in enumerate(ROTARY):
+            if counts[i]:
+                result = smooth_monotone(
+                    t, joints[:, 3 + i], basis_functions=options.basis_functions,
+                    min_shift=math.radians(options.phi_l_deg), deadband=deadband,
+                    max_rounds=options.max_smoothing_iterations)
+                smoothed[:, 3 + i] = result.values
+                done[key] = result
+        _, axis = kins.forward(smoothed)
+        joints = _inverse(kins, centre - radius * axis, axis, name)
+    return axis, joints, done
+
+
+def junction_errors(path: CutterPath, centres: Array, hub: RevolvedSurface, radius: float,
+                    pitch: float) -> dict[str, float] | None:
+    """Largest ``|distance - R|`` of ball centres from the hub and from the blade, mm.
+
+    The centres are turned back into passage 0 (where ``path.wall`` lies); the
+    blade distance comes from an independent foot-point search.
+    """
+    if path.wall is None or path.blade_v is None:
+        return None
+    back = rotate_about_z(centres, -path.passage * pitch)
+    hub_error = np.abs(hub.signed_distance(back) - radius)
+    blade = blade_distance(path.wall, back, path.wall.own_u(path.curve_u), path.blade_v)
+    return {"hub": float(hub_error.max()), "blade": float(np.abs(blade - radius).max())}
+
+
+def finish_path(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionScene,
+                options: FinishOptions, surfaces: ImpellerSurfaces | None = None
+                ) -> PathResult:
+    """Run M3 on one cutter-centre path (see the module docstring)."""
+    radius = tool.radius
+    tangent = path.tangent
+    axis0, sign = initial_axes(path.reference_axis, path.away, math.radians(options.c_tilt_deg))
+    axis0, _ = enforce_normal_angle(axis0, path.normal, tangent,
+                                    math.radians(options.min_normal_angle_deg))
+    joints0 = _inverse(kins, path.centre - radius * axis0, axis0, path.name)
+    before = reversal_counts(joints0, options)
+    deadband = math.radians(options.reversal_deadband_deg)
+    points_before = {k: reversal_points(joints0[:, 3 + i], deadband).tolist()
+                     for i, k in enumerate(ROTARY)}
+    axis, joints, smoothing = remove_reversals(path.centre, axis0, joints0, kins, radius,
+                                               options, path.name)
+    limits = c_max(path.centre, path.reference_axis, path.opposite_tip)
+    inter = resolve_interference(scene, tool, path.centre, axis, sign, limits, options)
+    if inter.delta_c:
+        joints = _inverse(kins, inter.tip, inter.axis, path.name)
+    after = reversal_counts(joints, options)
+    centre_now = inter.tip + radius * inter.axis
+    deviation = float(np.linalg.norm(centre_now - path.centre, axis=1).max())
+    lead, tilt = lead_tilt(inter.axis, path.normal, tangent)
+    if path.operation == "blade":
+        lead = np.full(len(path), np.nan)
+        tilt = np.full(len(path), np.nan)
+    junction = None
+    if surfaces is not None and path.operation == "junction":
+        junction = junction_errors(path, centre_now, surfaces.hub, radius,
+                                   surfaces.spec.pitch)
+    return PathResult(path, inter.tip, inter.axis, joints0, joints, before, after,
+                      points_before, smoothing, inter, deviation, junction, lead, tilt,
+                      angle_between(inter.axis, path.normal))
+
+
+@dataclass
+class FinishResult:
+    """All finished paths of a run, in machining order (operation, passage, path)."""
+
+    paths: list[PathResult]
+    tool: Tool
+    options: FinishOptions
+    scene_source: str
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def operations(self) -> dict[str, list[PathResult]]:
+        """Paths grouped by operation: junction, blade, hub (those present)."""
+        out: dict[str, list[PathResult]] = {}
+        for op in ("junction", "blade", "hub"):
+            members = [p for p in self.paths if p.path.operation == op]
+            if members:
+                out[op] = members
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """The run's totals and per-path entries (finish.json without file names)."""
+        entries = [p.summary(self.options) for p in self.paths]
+        clear = [e["min_clearance_mm"] for e in entries if e["min_clearance_mm"] is not None]
+
+        def total(key: str, sub: str) -> int:
+            return int(sum(e[key][sub] for e in entries))
+
+        junction = [e for e in entries if e["operation"] == "junction"]
+        return {
+            "paths": len(entries),
+            "points": int(sum(e["points"] for e in entries)),
+            "junction_points": [e["points"] for e in junction],
+            "reversals_before": {k: total("reversals_before", k) for k in ROTARY},
+            "reversals_after": {k: total("reversals_after", k) for k in ROTARY},
+            "linear_reversals_before": {k: total("linear_reversals_before", k) for k in LINEAR},
+            "linear_reversals_after": {k: total("linear_reversals_after", k) for k in LINEAR},
+            "collisions": int(sum(e["collisions"] for e in entries)),
+            "motion_collisions": int(sum(e["motion_collisions"] for e in entries)),
+            "min_clearance_mm": min(clear) if clear else None,
+            "max_centre_deviation_mm": max(e["max_centre_deviation_mm"] for e in entries),
+            "smaller_tool_needed": [e["name"] for e in entries if e["smaller_tool_needed"]],
+            "lead_tilt_violations": int(sum(e["lead_tilt_violations"] for e in entries)),
+            "normal_angle_violations": int(sum(e["normal_angle_violations"] for e in entries)),
+            "max_junction_distance_error_mm": max(
+                (max(e["junction_distance_error_mm"].values()) for e in entries
+                 if e["junction_distance_error_mm"] is not None), default=None),
+            "path_entries": entries,
+        }
+
+
+def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
+                   scene: CollisionScene, options: FinishOptions, *, scene_source: str,
+                   progress: Callable[[int, int, str], None] | None = None
+                   ) -> FinishResult:
+    """Generate and finish every path of every passage (passage 0, then rotations).
+
+    Parameters
+    ----------
+    surfaces : ImpellerSurfaces
+    tool : Tool
+        A ball-end mill.
+    kins : Kinematics
+        The machine's kinematics (reverse movements are counted in its joints).
+    scene : CollisionScene
+    options : FinishOptions
+    scene_source : str
+        Name of the collision meshes' origin (reported).
+    progress : callable, optional
+        ``progress(done, total, path_name)`` after each path.
+    """
+    if tool.shape != "ball":
+        raise InputError("five-axis finishing needs a ball-end mill", field="tool",
+                         value=tool.name, accepted="a tool of type 'ball'")
+    stepover = scallop_stepover(tool.radius, options.scallop_mm)
+    base = passage_paths(surfaces, tool.radius, options.point_spacing_mm, stepover,
+                         blade=options.blade_passes, hub=options.hub_passes)
+    blades = surfaces.spec.blades
+    count = blades if options.passages is None else min(options.passages, blades)
+    ordered: list[CutterPath] = []
+    for op in ("junction", "blade", "hub"):
+        for k in range(count):
+            ordered += [p if k == 0 else rotate_path(p, k, surfaces.spec.pitch)
+                        for p in base if p.operation == op]
+    results: list[PathResult] = []
+    for i, path in enumerate(ordered):
+        results.append(finish_path(path, tool, kins, scene, options, surfaces))
+        if progress is not None:
+            progress(i + 1, len(ordered), path.name)
+    return FinishResult(results, tool, options, scene_source)
+
+
+def passes_of(results: Sequence[PathResult]) -> list[tuple[Array, Array]]:
+    """``(tip, axis)`` of each path result, for ``linking.join_passes``."""
+    return [(r.tip, r.axis) for r in results]
