@@ -51,11 +51,26 @@ def finish_command(
     machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML.")],
     tool: Annotated[str, typer.Option("-t", "--tool", help="NAME or LIBRARY.toml:NAME.")],
     out: Annotated[Path, typer.Option("-o", "--out", help="Output folder.")],
+    scallop: Annotated[float, typer.Option(help="Allowed scallop height, mm.")] = 0.02,
+    spacing: Annotated[float, typer.Option(help="Point spacing along a path, mm.")] = 0.25,
+    passages: Annotated[
+        int | None, typer.Option(help="Finish only the first N passages (default: all).")
+    ] = None,
+    plots: Annotated[bool, typer.Option(help="Write the A/C displacement plots.")] = True,
 ) -> None:
     """Five-axis finishing: APT per operation, finish.json, A/C displacement plots."""
     from cam.finishing.command import run_finish
 
-    run_finish(spec, machine, tool, out)
+    run_finish(
+        spec,
+        machine,
+        tool,
+        out,
+        plots=plots,
+        scallop_mm=scallop,
+        point_spacing_mm=spacing,
+        passages=passages,
+    )
 
 
 @app.command("rough")
@@ -64,11 +79,13 @@ def rough_command(
     machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML.")],
     tool: Annotated[str, typer.Option("-t", "--tool", help="NAME or LIBRARY.toml:NAME.")],
     out: Annotated[Path, typer.Option("-o", "--out", help="Output folder.")],
+    scallop: Annotated[float, typer.Option(help="Allowed scallop height, mm.")] = 0.5,
+    passages: Annotated[int, typer.Option(help="Rough only the first N passages (0: all).")] = 0,
 ) -> None:
     """Three-axis roughing by Unit Machining Regions (3+2): APT per UMR, rough.json."""
     from cam.roughing.command import run_rough
 
-    run_rough(spec, machine, tool, out)
+    run_rough(spec, machine, tool, out, scallop_mm=scallop, passages=passages)
 
 
 @app.command("verify")
