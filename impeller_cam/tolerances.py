@@ -35,6 +35,13 @@ class Tolerances:
         Stock model resolution for verification, mm. 0.1 mm.
     singular_tilt : float
         Tilt (A) below which the C axis is treated as undefined, radians. 1e-9.
+    contact : float
+        Verification: a rapid cut or a shank/holder overlap counts when longer than
+        this along a dexel ray, mm. 0.01 mm.
+    gouge : float
+        Verification: stock deeper than this inside the design is a gouge (and more
+        than allowance + this outside it is excess), mm; it must exceed the design
+        mesh's tessellation error. 0.05 mm.
     """
 
     length: float = 1e-6
@@ -45,6 +52,8 @@ class Tolerances:
     clearance: float = 0.5
     simulation_resolution: float = 0.1
     singular_tilt: float = 1e-9
+    contact: float = 0.01
+    gouge: float = 0.05
 
 
 DEFAULT_TOLERANCES = Tolerances()

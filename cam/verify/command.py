@@ -27,6 +27,7 @@ from cam.verify.toolshape import tool_shape
 from impeller_cam.atomic import staged_directory, write_bytes_atomic, write_text_atomic
 from impeller_cam.errors import InputError
 from impeller_cam.progress import progress_bar
+from impeller_cam.tolerances import DEFAULT_TOLERANCES
 from postproc.program import Motion
 
 #: Sub-moves swept per kernel call (progress granularity).
@@ -59,8 +60,8 @@ class VerifyOptions:
     """
 
     sweep_tolerance: float | None = None
-    contact_tolerance: float = 0.01
-    gouge_tolerance: float = 0.05
+    contact_tolerance: float = DEFAULT_TOLERANCES.contact
+    gouge_tolerance: float = DEFAULT_TOLERANCES.gouge
     allowance: float | None = None
     render: bool = True
 
