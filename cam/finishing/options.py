@@ -7,10 +7,11 @@ to radians where they are used; lengths are mm.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 from typing import Any
 
 from impeller_cam.errors import InputError
+from impeller_cam.options import options_from_mapping
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
 
 __all__ = ["FinishOptions", "scallop_stepover"]
@@ -154,12 +155,7 @@ class FinishOptions:
     @classmethod
     def from_mapping(cls, values: dict[str, Any]) -> FinishOptions:
         """Build from keyword options, naming an unknown key in an ``InputError``."""
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(values) - known)
-        if unknown:
-            raise InputError("unknown finishing option", field=unknown[0],
-                             value=values[unknown[0]], accepted=", ".join(sorted(known)))
-        return cls(**values)
+        return options_from_mapping(cls, values, "finishing")
 
     def as_dict(self) -> dict[str, Any]:
         """The options as a JSON-ready dict (boundary units: mm, deg)."""

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 from typing import Any
 
 from impeller_cam.errors import InputError
+from impeller_cam.options import options_from_mapping
 
 __all__ = ["FEEDS", "RoughOptions"]
 
@@ -104,12 +105,7 @@ class RoughOptions:
     @classmethod
     def from_mapping(cls, options: dict[str, Any]) -> RoughOptions:
         """Build from keyword options, refusing unknown names."""
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(options) - known)
-        if unknown:
-            raise InputError("unknown roughing option", field=unknown[0],
-                             value=options[unknown[0]], accepted=", ".join(sorted(known)))
-        return cls(**options)
+        return options_from_mapping(cls, options, "roughing")
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready dict."""
