@@ -32,6 +32,9 @@ from numpy.typing import NDArray
 from cam.collision.distance_grid import DistanceGrid
 from cam.collision.triangle_bvh import TriangleBVH
 
+#: Grid nodes within this many grid spacings of the surface get exact distances.
+EXACT_BAND = 6.0
+
 
 def grid_frame(
     vertices: NDArray[np.float64], spacing: float, margin: float
@@ -55,7 +58,8 @@ def surface_grid(
     Parameters
     ----------
     bvh : TriangleBVH
-        The mesh's triangles (exact distances in the band of 3 grid spacings).
+        The mesh's triangles (exact distances in the band of ``EXACT_BAND`` grid
+        spacings).
     sample_spacing : float
         Surface sample spacing for the distance transform, mm.
     origin, shape, spacing
@@ -66,7 +70,7 @@ def surface_grid(
         tris.reshape(-1, 3), np.arange(3 * len(tris)).reshape(-1, 3), sample_spacing
     )
     return DistanceGrid.from_samples(
-        points, covering, origin, shape, spacing, 3.0 * spacing, bvh.distances
+        points, covering, origin, shape, spacing, EXACT_BAND * spacing, bvh.distances
     )
 
 

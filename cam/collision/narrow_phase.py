@@ -67,21 +67,29 @@ def first_contacts(
     calls = 0
     request = fcl.CollisionRequest()
     pending = np.flatnonzero(first_state == UNDECIDED)
-    for i in pending:
-        placed = -1
-        for code, role in np.argwhere(state[i] != CLEAR):
-            if state[i, code, role] == UNDECIDED:
-                obj = part_objects[code]
-                assert obj is not None
-                if placed != code:
-                    obj.setTransform(fcl.Transform(rot[i], tip[i]))
-                    placed = int(code)
-                calls += 1
-                if not fcl.collide(obj, role_objects[role], request, fcl.CollisionResult()):
-                    continue
-            else:
-                definite += 1
-            collides[i], part_hit[i], role_hit[i] = True, code, role
-            break
+    # the non-clear pairs of the pending postures, posture-major then part-major order
+    rows, codes, role_ids = np.nonzero(state[pending] != CLEAR)
+    kinds = state[pending[rows], codes, role_ids]
+    done = -1
+    placed = (-1, -1)
+    for row, code, role, kind in zip(
+        rows.tolist(), codes.tolist(), role_ids.tolist(), kinds.tolist(), strict=True
+    ):
+        if row == done:
+            continue  # this posture's first contact is known
+        i = int(pending[row])
+        if kind == UNDECIDED:
+            obj = part_objects[code]
+            assert obj is not None
+            if placed != (row, code):
+                obj.setTransform(fcl.Transform(rot[i], tip[i]))
+                placed = (row, code)
+            calls += 1
+            if not fcl.collide(obj, role_objects[role], request, fcl.CollisionResult()):
+                continue
+        else:
+            definite += 1
+        collides[i], part_hit[i], role_hit[i] = True, code, role
+        done = row
     counts = {"collide": calls, "definite_hits": definite, "narrow_postures": len(pending)}
     return collides, part_hit, role_hit, counts

@@ -6,15 +6,18 @@ The scene holds, per role (``"hub"``, ``"pressure"``, ``"blade3"``, ...), an fcl
 a bounding-volume hierarchy (numba). Each tool part is covered by spheres on its
 axis. A check of ``n`` postures runs in stages, each deciding what it can:
 
-1. **Scene grid** (numba, all postures): a part whose spheres all clear the
-   lower bound of the distance to the whole scene is clear of every role.
-2. **Role grid + exact sphere test** (numba, the rest, role by role in order,
-   roles whose bounding box the part's spheres cannot reach skipped):
-   each sphere is tested against the role's grid, then against the exact
-   distance to the role's triangles near it. The pair (part, role) is *clear*
-   (every sphere clear), a *definite hit* (a surface point strictly inside the
-   true part, the role's pieces all larger than the part), or *undecided*.
-   Postures already settled by a definite hit earlier in the order are skipped.
+1. **Whole scene** (numba, all postures, one kernel per part,
+   ``exact_phase.classify_part``): spheres that clear the lower bound of the
+   distance to the whole scene (coarse grid, then the role mask or the fine
+   grid) are clear of every role; a posture with none left is clear.
+2. **Role grids + exact sphere tests** (same kernel, the remaining spheres,
+   role by role in order, only the roles in the sphere's mask): each sphere
+   is tested against the role's grids, then against the exact distance to the
+   role's triangles near it. The pair (part, role) is *clear* (every sphere
+   clear), a *definite hit* (a surface point strictly inside the true part,
+   whose surface piece also reaches outside the part mesh), or *undecided*.
+   A definite hit ends the posture; postures settled by a definite hit of an
+   earlier part are not classified again.
 3. **fcl** (Python loop, only postures whose first non-clear pair in the order
    cutter, shank, holder x roles is undecided): ``fcl.collide`` on the
    undecided pairs in that order until the first contact.
@@ -47,7 +50,7 @@ from cam.collision.broad_phase import (
     surface_grid,
 )
 from cam.collision.distance_grid import DistanceGrid, RoleMask
-from cam.collision.exact_phase import CLEAR, HIT, TriangleSet, classify_spheres
+from cam.collision.exact_phase import HIT, SceneArrays, TriangleSet, classify_part
 from cam.collision.narrow_phase import first_contacts
 from cam.collision.postures import (
     motion_bound,
@@ -219,6 +222,12 @@ class CollisionScene:
             else None
         )
         self.max_reach = float(max_reach)
+        self.arrays = SceneArrays.build(
+            [self.grids[r] for r in self.roles],
+            self.whole,
+            self.role_mask,
+            [self.triangles[r] for r in self.roles],
+        )
         self._merged = merged
         self._whole_object: fcl.CollisionObject | None = None
         self._tools: dict[tuple[Tool, float], _ToolModel] = {}
@@ -333,56 +342,36 @@ class CollisionScene:
         n = len(tip_a)
         rot = rotations_to(axis_a)
         active = [p for p in PART_NAMES if p in parts and p in model.parts]
-        state = np.full((n, len(PART_NAMES), len(self.roles)), CLEAR, dtype=np.int8)
+        state = np.zeros((n, len(PART_NAMES), len(self.roles)), dtype=np.int8)  # CLEAR
         settled = np.zeros(n, dtype=bool)  # a definite hit earlier in the order decides
         for p in active:
+            todo = np.flatnonzero(~settled)
+            if not todo.size:
+                break
             code = PART_NAMES.index(p)
             heights, radii = model.spheres[p]
             roles = roles_for_cutter if p == "cutter" else self.roles
-            todo = np.flatnonzero(~settled)
-            if len(roles) == len(self.roles) and len(self.roles) > 1 and todo.size:
-                lb = self.whole.part_bounds(
-                    tip_a[todo], axis_a[todo], heights, radii, BROAD_MARGIN
-                )
-                todo = todo[lb <= BROAD_MARGIN]
-            if not todo.size:
-                continue
-            centres = tip_a[todo, None, :] + heights[None, :, None] * axis_a[todo, None, :]
-            part_lo = (centres - radii[None, :, None]).min(axis=1) - BROAD_MARGIN
-            part_hi = (centres + radii[None, :, None]).max(axis=1) + BROAD_MARGIN
-            masks = np.full(len(todo), -1, dtype=np.int64)
-            if self.role_mask is not None:
-                masks = self.role_mask.roles_near(
-                    tip_a[todo], axis_a[todo], heights, radii, BROAD_MARGIN
-                )
-            for role in roles:
-                keep = ~settled[todo]
-                todo, part_lo, part_hi = todo[keep], part_lo[keep], part_hi[keep]
-                masks = masks[keep]
-                if not todo.size:
-                    break
-                # the role must be in the posture's mask and its bounding box must
-                # meet the box around the part's spheres
-                box_lo, box_hi = self.grids[role].box_lo, self.grids[role].box_hi
-                near = np.all((part_hi >= box_lo) & (part_lo <= box_hi), axis=1)
-                near &= ((masks >> self.roles.index(role)) & 1).astype(bool)
-                if not near.any():
-                    continue
-                result = classify_spheres(
-                    self.grids[role],
-                    self.triangles[role],
-                    tip_a[todo[near]],
-                    axis_a[todo[near]],
-                    heights,
-                    radii,
-                    model.inner[p],
-                    margin=BROAD_MARGIN,
-                    allow_hit=self.triangles[role].smallest_component
-                    > model.size[p] + BROAD_MARGIN,
-                    max_reach=self.max_reach,
-                )
-                state[todo[near], code, self.roles.index(role)] = result
-                settled[todo[near][result == HIT]] = True
+            role_on = np.array([r in roles for r in self.roles])
+            allow_hit = np.array(
+                [self.triangles[r].smallest_component > model.size[p] + BROAD_MARGIN
+                 for r in self.roles]
+            )
+            result = classify_part(
+                self.arrays,
+                tip_a[todo],
+                axis_a[todo],
+                heights,
+                radii,
+                model.inner[p],
+                model.parts[p].profile,
+                model.parts[p].arc_excess,
+                role_on,
+                allow_hit,
+                margin=BROAD_MARGIN,
+                max_reach=self.max_reach,
+            )
+            state[todo, code, :] = result
+            settled[todo[(result == HIT).any(axis=1)]] = True
         part_objects = [model.objects.get(name) for name in PART_NAMES]
         role_objects = [self.objects[role] for role in self.roles]
         collides, part_hit, role_hit, calls = first_contacts(

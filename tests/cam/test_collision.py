@@ -159,6 +159,28 @@ def test_inscribed_radii_hand_case() -> None:
     assert inner[3] == 0.0  # outside the cutter
 
 
+def test_profile_depth_hand_case() -> None:
+    """Signed depth of a point in a revolved profile: a cylinder r 5, 0 <= z <= 10."""
+    from cam.collision.triangle_bvh import profile_depth as _depth
+
+    profile = np.array([[0.0, 0.0], [5.0, 0.0], [5.0, 10.0], [0.0, 10.0]])
+    tip, axis = np.array([1.0, 2.0, 3.0]), np.array([0.0, 0.0, 1.0])
+    # meridian (rho, h) = (3, 4): 2 mm from the side, 4 from the bottom -> depth 2
+    assert _depth(profile, tip, axis, 1.0 + 3.0, 2.0, 3.0 + 4.0) == pytest.approx(2.0)
+    # (6, 4): 1 mm outside the side -> -1
+    assert _depth(profile, tip, axis, 1.0, 2.0 + 6.0, 3.0 + 4.0) == pytest.approx(-1.0)
+    # (0, 9.5) on the axis: 0.5 mm below the top; the axis itself is not a surface
+    assert _depth(profile, tip, axis, 1.0, 2.0, 3.0 + 9.5) == pytest.approx(0.5)
+    # (2, -1): below the bottom -> -1
+    assert _depth(profile, tip, axis, 1.0, 2.0 + 2.0, 3.0 - 1.0) == pytest.approx(-1.0)
+    # tilted axis: the same point in the rotated frame
+    t = math.radians(30.0)
+    tilted = np.array([math.sin(t), 0.0, math.cos(t)])
+    across = np.array([math.cos(t), 0.0, -math.sin(t)])
+    point = tip + 4.0 * tilted + 3.0 * across
+    assert _depth(profile, tip, tilted, *point) == pytest.approx(2.0)
+
+
 def test_surface_samples_cover_within_radius() -> None:
     mesh = box((0, 0, 0), (7, 3, 2))
     points, covering = surface_samples(mesh.vertices, mesh.faces, 0.5)
@@ -355,6 +377,99 @@ def test_identical_near_the_hub(impeller_scene: CollisionScene) -> None:
         assert np.array_equal(fast.part, plain.part)
         assert fast.hit_role == plain.hit_role
         assert np.allclose(fast.clearance, plain.clearance, atol=1e-9)
+
+
+def _radius_at(profile: np.ndarray, height: np.ndarray) -> np.ndarray:
+    """Largest radius of a meridian polygon ``(r, z)`` at each height, mm (0 outside)."""
+    out = np.zeros_like(height)
+    for (r0, z0), (r1, z1) in zip(profile[:-1], profile[1:], strict=True):
+        lo, hi = min(z0, z1), max(z0, z1)
+        inside = (height >= lo) & (height <= hi)
+        t = np.clip((height - z0) / (z1 - z0), 0.0, 1.0) if z1 != z0 else np.ones_like(height)
+        r = np.where(z1 != z0, r0 + t * (r1 - r0), max(r0, r1))
+        out = np.where(inside, np.maximum(out, r), out)
+    return out
+
+
+def _side_postures(
+    scene: CollisionScene, seed: int, allowance: float, part: str, n: int = 40
+) -> tuple[np.ndarray, np.ndarray]:
+    """Postures whose ``part`` passes within about +-0.3 mm of random surface points.
+
+    A random point p (normal nu) of a random role. Sideways (even postures): an
+    axis rising away from the surface (tangent + 0.2-0.6 nu), the part's
+    circumscribing profile at most 2 mm above its lowest point at signed distance
+    ``U(-0.3, 0.3)`` mm from p on the outer side. End-on (odd postures): the axis
+    about along nu (components up to 0.1 off), the part's lowest axis point that
+    far above p.
+    The ball/shank/holder just touches, just misses or cuts in.
+    """
+    rng = np.random.default_rng(seed)
+    role = scene.roles[int(rng.integers(len(scene.roles)))]
+    mesh = scene.meshes[role]
+    face = rng.choice(len(mesh.faces), size=n, p=mesh.area_faces / mesh.area_faces.sum())
+    a, b = rng.random((2, n))
+    flip = a + b > 1
+    a, b = np.where(flip, 1 - a, a), np.where(flip, 1 - b, b)
+    tri = mesh.triangles[face]
+    point = tri[:, 0] + a[:, None] * (tri[:, 1] - tri[:, 0]) + b[:, None] * (tri[:, 2] - tri[:, 0])
+    normal = mesh.face_normals[face]
+    tangent = np.cross(normal, rng.normal(size=(n, 3)))
+    tangent /= np.linalg.norm(tangent, axis=1)[:, None]
+    axis = tangent + rng.uniform(0.2, 0.6, n)[:, None] * normal
+    axis /= np.linalg.norm(axis, axis=1)[:, None]
+    side = normal - np.einsum("ij,ij->i", normal, axis)[:, None] * axis
+    side /= np.linalg.norm(side, axis=1)[:, None]
+    geometry = scene.tool_model(BALL, -allowance).parts[part]
+    z = geometry.profile[:, 1]
+    height = z.min() + rng.uniform(0.0, min(2.0, float(np.ptp(z))), n)
+    gap = rng.uniform(-0.3, 0.3, n)
+    radius = _radius_at(geometry.profile, height) + gap
+    tip = point - height[:, None] * axis + radius[:, None] * side
+    # every other posture end-on instead: the part's lowest point gap above p
+    up = normal + rng.uniform(-0.1, 0.1, (n, 3))
+    up /= np.linalg.norm(up, axis=1)[:, None]
+    end = np.arange(n) % 2 == 1
+    tip[end] = point[end] + gap[end, None] * normal[end] - z.min() * up[end]
+    axis[end] = up[end]
+    return tip, axis
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    allowance=st.sampled_from([0.0, 0.03, -0.3]),
+    part=st.sampled_from(["cutter", "shank", "holder"]),
+)
+def test_property_fast_path_equals_plain_loop_near_surfaces(
+    impeller_scene: CollisionScene, seed: int, allowance: float, part: str
+) -> None:
+    """Fast check and plain fcl loop agree posture by posture on near contacts."""
+    tip, axis = _side_postures(impeller_scene, seed, allowance, part)
+    for parts in ((part,), ("cutter", "shank", "holder")):
+        fast = impeller_scene.check_postures(
+            BALL, tip, axis, parts=parts, cutter_allowance=allowance, clearance=False
+        )
+        plain = plain_fcl_check(
+            impeller_scene, BALL, tip, axis, parts=parts, cutter_allowance=allowance,
+            clearance=False,
+        )
+        assert np.array_equal(fast.collides, plain.collides)
+        assert np.array_equal(fast.part, plain.part)
+        assert fast.hit_role == plain.hit_role
+
+
+def test_side_postures_mix_hits_and_misses(impeller_scene: CollisionScene) -> None:
+    """The property test's postures are near contacts: both answers occur for each part,
+    and the fast path leaves some of them to fcl (the undecided band is exercised)."""
+    for part in ("cutter", "shank", "holder"):
+        postures = [_side_postures(impeller_scene, s, 0.0, part) for s in range(10)]
+        tip = np.concatenate([p[0] for p in postures])
+        axis = np.concatenate([p[1] for p in postures])
+        plain = plain_fcl_check(impeller_scene, BALL, tip, axis, parts=(part,), clearance=False)
+        fast = impeller_scene.check_postures(BALL, tip, axis, parts=(part,), clearance=False)
+        assert 0 < plain.collides.sum() < len(tip), part
+        assert fast.checks["collide"] > 0 and fast.checks["definite_hits"] > 0, part
 
 
 def test_clearance_cap_gives_exact_values_below_and_bounds_above(
