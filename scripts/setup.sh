@@ -2,7 +2,8 @@
 # Create .venv and install impeller-cam into it (with the dev extra when asked).
 # Usage: scripts/setup.sh [--dev]
 # Also installs LinuxCNC's stand-alone interpreter (rs274, Debian package
-# linuxcnc-uspace) with --dev, since the tests feed our NC output to it.
+# linuxcnc-uspace) and a headless browser (Debian package chromium) with --dev,
+# since the tests feed our NC output to rs274 and open report.html in chromium.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 extra=""
@@ -15,6 +16,15 @@ if [ "${1:-}" = "--dev" ]; then
       DEBIAN_FRONTEND=noninteractive apt-get install -y -qq linuxcnc-uspace >/dev/null
     else
       echo "warning: rs274 not found; install Debian package linuxcnc-uspace" >&2
+    fi
+  fi
+  if ! command -v chromium >/dev/null 2>&1; then
+    if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
+      echo "installing chromium (headless browser for the report test)" >&2
+      apt-get update -qq
+      DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null
+    else
+      echo "warning: chromium not found; install Debian package chromium" >&2
     fi
   fi
 fi
