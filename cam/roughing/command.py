@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 
 from cam.collision import CollisionScene
 from cam.finishing.scene import surface_meshes
+from cam.roughing.aircheck import rapid_checks
 from cam.roughing.baseline import five_axis_baseline
 from cam.roughing.dropcutter import DropCutter
 from cam.roughing.linking import LinkSettings
@@ -121,7 +122,7 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
     rho = radius + eta + tessellation
     triangles = np.concatenate([np.asarray(m.triangles) for m in meshes.values()])
     blank = Blank(surfaces)
-    blank_tri = np.asarray(blank.mesh().triangles)
+    closed_tri = np.asarray(blank.closed_mesh().triangles)
     n_pass = options.passages or spec.blades
     if n_pass > spec.blades:
         raise InputError("more passages asked than the impeller has", field="passages",
@@ -144,17 +145,19 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
             if progress is not None:
                 progress(umr.index, len(umrs), f"{lane.name}: UMR {umr.index + 1}")
             envelope = DropCutter(np.concatenate([umr.frame.triangles,
-                                                  blank_tri @ umr.frame.matrix.T]),
+                                                  closed_tri @ umr.frame.matrix.T]),
                                   rho)
             safe = safe_height_of(umr, envelope, options.safe_distance_mm)
             settings = LinkSettings(options.clearance_mm, options.entry_height_mm,
-                                    options.entry_angle_deg, safe)
-            first = region_segment(umr, grid, blank, envelope, radius, settings, safe,
-                                   options.direct_link_mm)
+                                    options.entry_angle_deg, safe, options.lift_mm)
+            first = region_segment(umr, grid, blank, closed_tri, radius, settings, safe,
+                                   options.direct_link_mm, tool.stickout - radius, segments)
             if len(first.tip):
                 segments.append(first)
-        base = five_axis_baseline(grid, blank, radius, options.clearance_mm,
-                                  options.direct_link_mm, triangles, rho)
+        base_links = LinkSettings(options.clearance_mm, options.entry_height_mm,
+                                  options.entry_angle_deg, np.inf, options.lift_mm)
+        base = five_axis_baseline(grid, blank, tool, eta, base_links, options.direct_link_mm,
+                                  triangles, rho)
         base.notes["lane"] = float(lane_index)
         base0.append(base)
     # UMR-major order: each UMR (one A, C) over every passage, then the next UMR
@@ -308,18 +311,18 @@ def check_collisions(scene: CollisionScene, result: RoughResult, eta: float,
             "baseline_collisions": base_bad, "baseline_moves_checked": base_moves}
 
 
-def min_allowance(result: RoughResult) -> float:
+def min_allowance(result: RoughResult, segments: list[Segment] | None = None) -> float:
     """Smallest distance of the ball surface from the design triangles, mm.
 
     Exact point-triangle distances (``cam.collision.triangle_bvh``) of the ball
     centres of passage 0 (the other passages are rotations of it), at the poses and
-    every ``REFINE_STEP`` along the cutting moves.
+    at 3 points inside every cutting move, of ``segments`` (default: the 3+2 plan).
     """
     from cam.collision.triangle_bvh import TriangleBVH
 
     radius = result.tool.radius
     centres = []
-    for s in result.segments:
+    for s in result.segments if segments is None else segments:
         if s.passage != 0:
             continue
         c = s.tip + radius * s.axis
@@ -400,6 +403,13 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
             scene = CollisionScene(result.meshes)
             checks = check_collisions(scene, result, eta, kins)
         allowance = min_allowance(result)
+        base_allowance = min_allowance(result, result.baseline)
+        if check:
+            blank = Blank(surfaces)
+            checks.update(rapid_checks(result.segments, result.baseline, result.umrs, blank,
+                                       np.asarray(blank.closed_mesh().triangles),
+                                       the_tool.radius,
+                                       the_tool.stickout - the_tool.radius))
     joints0 = [np.asarray(kins.inverse(u.frame.axis[None] * 0.0, u.axis[None]))[0]
                for u in result.umrs]
     umrs = []
@@ -435,6 +445,7 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
         "umrs": umrs,
         **checks,
         "min_allowance_mm": allowance,
+        "baseline_min_allowance_mm": base_allowance,
         "time_min": {"3axis": three_nom["nominal"], "5axis": five_nom["nominal"]},
         "time_limited_min": {"3axis": three_lim["limited"], "5axis": five_lim["limited"]},
         "paper_table1_min": PAPER_TABLE1,

@@ -1,15 +1,23 @@
 """Linking moves of a fixed-axis (3+2) region, in the region's frame (axis = +Z).
 
-Between two cutting runs: **retract** along +Z at feed until the ball is clear of the
-blank (``clear_height``), rapid up to the link height, **rapid** across
-at that height to above the next run, rapid down to ``entry_height`` above its first
-point, then **ramp** in at ``entry_angle`` (deg from the horizontal) along the
-direction of the run's first move, or **plunge** along -Z when the ramp would come
-closer than the allowance to the design (checked with the drop-cutter) or the run's
-first move is not long enough to give a direction. An entry angle of 90 deg always
-plunges. The link height is the highest point of the drop-cutter surface of the
-design plus the blank envelope along the straight XY line between the two runs, plus
-``clearance``; it never exceeds the frame's safe height.
+As a CAM system links a 3-axis roughing program (``ZMap`` is the stock model):
+
+* **lift**: from a run's last point a short feed move ``lift`` mm up the axis (the
+  cutter leaves the cut at feed), then rapid;
+* **link height**: the rapids climb to, cross at, and come down from the lowest
+  height that keeps the ball in air and off the design along the straight XY line
+  between the two runs, plus ``clearance``: the air height of the stock map
+  (the blank's top, or the floor the layers above and the runs before have left)
+  and the drop-cutter height of the design, sampled every ``LINK_SAMPLE`` mm.
+  Between passes of a layer that is just above the layer above's floor, not above
+  the whole blank; it never exceeds the frame's safe height;
+* **approach and entry**: rapid down to ``entry_height`` above the stock at the
+  entry (the stock's air height there), then **ramp** in at ``entry_angle`` (deg
+  from the horizontal) along the direction of the run's first move, or **plunge**
+  along -Z when the ramp would come closer than the allowance to the design
+  (drop-cutter), its top would stand in stock, or the run has no direction; an
+  entry angle of 90 deg always plunges. Ramps and plunges are feed moves
+  (``MoveKind.PLUNGE``, cut at the plunge feed) only over that last distance.
 """
 
 from __future__ import annotations
@@ -21,67 +29,100 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam.roughing.dropcutter import DropCutter
+from cam.roughing.stockmap import ZMap
 from postproc.toolpath import MoveKind
 
 __all__ = ["LinkSettings", "entry_moves", "link_runs", "refine_moves"]
 
 #: Sample spacing of link lines and ramps for the drop-cutter checks, mm.
-LINK_SAMPLE = 1.0
+LINK_SAMPLE = 0.5
 #: Sample spacing of the feed-move refinement, mm.
 REFINE_STEP = 0.25
 
 
 @dataclass(frozen=True)
 class LinkSettings:
-    """Linking parameters (mm, deg)."""
+    """Linking parameters (mm, deg): feed lift, link clearance above stock and design,
+    approach clearance above the stock at an entry, ramp angle, safe height."""
 
     clearance: float = 2.0
-    entry_height: float = 2.0
+    entry_height: float = 1.0
     entry_angle_deg: float = 15.0
     safe_height: float = math.inf
+    lift: float = 1.0
 
 
-def _line(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    n = max(2, int(math.ceil(np.linalg.norm(b[:2] - a[:2]) / LINK_SAMPLE)) + 1)
+def _line(a: NDArray[np.float64], b: NDArray[np.float64],
+          step: float = LINK_SAMPLE) -> NDArray[np.float64]:
+    n = max(2, int(math.ceil(np.linalg.norm(b[:2] - a[:2]) / step)) + 1)
     t = np.linspace(0.0, 1.0, n)[:, None]
     return np.asarray(a[None] + t * (b - a)[None])
 
 
+def _ceiling(points: NDArray[np.float64], design: DropCutter, stock: ZMap
+             ) -> NDArray[np.float64]:
+    """Lowest ball-centre height in air and off the design over ``points`` (frame)."""
+    return np.asarray(np.maximum(stock.air_height(points), design.drop(points)))
+
+
 def entry_moves(start: NDArray[np.float64], direction: NDArray[np.float64] | None,
-                design: DropCutter, settings: LinkSettings
+                design: DropCutter, stock: ZMap, settings: LinkSettings,
+                lowest: float | None = None
                 ) -> tuple[NDArray[np.float64], NDArray[np.int8], bool]:
-    """Ball centres and move kinds from above ``start`` down onto it (frame coords).
+    """The approach point and the feed entry onto ``start`` (frame coords).
+
+    ``lowest``: a frame height down to which a ball coming down the axis over
+    ``start`` (from the stock map's air height) is known to stay in air from another
+    stock model (``SweptStock``: cuts of earlier regions); a plunge may start
+    ``entry_height`` above it.
 
     Returns
     -------
-    centres : (k, 3) float64
-    kinds : (k,) int8
-        RAPID to the entry point, then PLUNGE (feed) moves.
+    centres : (2, 3) float64
+        The entry's top (reached by rapid) and ``start``.
+    kinds : (2,) int8
+        RAPID (to the top), PLUNGE (the ramp or plunge at the plunge feed).
     ramped : bool
     """
-    above = start + np.array([0.0, 0.0, settings.entry_height])
+    above = float(_ceiling(start[None], design, stock)[0])
+    z_top = max(above, float(start[2])) + settings.entry_height
+    plunge_top = z_top if lowest is None else min(
+        z_top, max(lowest, float(design.drop(start[None])[0]), float(start[2]))
+        + settings.entry_height)
     if direction is not None and settings.entry_angle_deg < 90.0:
         d = np.array([direction[0], direction[1], 0.0])
         norm = np.linalg.norm(d)
         if norm > 1e-9:
-            run = settings.entry_height / math.tan(math.radians(settings.entry_angle_deg))
-            ramp_top = start - d / norm * run + np.array([0.0, 0.0, settings.entry_height])
-            samples = _line(ramp_top, start)
-            floor = design.drop(samples)
-            if np.all(floor <= samples[:, 2] + 1e-9):
-                return (np.stack([ramp_top, start]),
-                        np.array([MoveKind.RAPID, MoveKind.PLUNGE], np.int8), True)
-    return np.stack([above, start]), np.array([MoveKind.RAPID, MoveKind.PLUNGE], np.int8), False
+            d /= norm
+            slope = math.tan(math.radians(settings.entry_angle_deg))
+            for _ in range(4):  # the ramp's top must be in air too: raise it until so
+                if not math.isfinite(z_top):
+                    break
+                top = start - d * (z_top - start[2]) / slope
+                top[2] = z_top
+                samples = _line(top, start)
+                need = max(float(_ceiling(top[None], design, stock)[0]) + settings.entry_height,
+                           z_top)
+                if need > z_top + 1e-9:
+                    z_top = need
+                    continue
+                height = samples[:, 2]
+                if np.all(design.drop(samples) <= height + 1e-9):
+                    return (np.stack([top, start]),
+                            np.array([MoveKind.RAPID, MoveKind.PLUNGE], np.int8), True)
+                break
+    top = np.array([start[0], start[1], plunge_top])
+    return np.stack([top, start]), np.array([MoveKind.RAPID, MoveKind.PLUNGE], np.int8), False
 
 
 def link_runs(end: NDArray[np.float64], start: NDArray[np.float64],
-              direction: NDArray[np.float64] | None, design: DropCutter,
-              envelope: DropCutter, settings: LinkSettings, clear_height: float = -math.inf
+              direction: NDArray[np.float64] | None, design: DropCutter, stock: ZMap,
+              settings: LinkSettings, lowest: float | None = None
               ) -> tuple[NDArray[np.float64], NDArray[np.int8], bool]:
-    """Retract, rapid and entry from run end ``end`` to run start ``start`` (frame).
+    """Lift, rapids at the link height and entry from run end ``end`` to ``start``.
 
-    The retract is a feed move up to ``clear_height`` (the ball clear of the blank,
-    frame z) and a rapid above it.
+    ``stock`` must already hold the cuts up to ``end`` (see module docstring);
+    ``lowest`` as in ``entry_moves``.
 
     Returns
     -------
@@ -90,26 +131,18 @@ def link_runs(end: NDArray[np.float64], start: NDArray[np.float64],
     kinds : (k,) int8
     ramped : bool
     """
-    entry, kinds, ramped = entry_moves(start, direction, design, settings)
-    line = np.concatenate([_line(end, entry[0]), _line(entry[0], start)])
-    top = max(float(np.max(design.drop(line))), float(np.max(envelope.drop(line))),
-              float(end[2]), float(entry[0, 2]))
-    height = min(top + settings.clearance, settings.safe_height)
-    height = max(height, float(end[2]), float(entry[0, 2]))
-    up = np.array([end[0], end[1], height])
-    over = np.array([entry[0, 0], entry[0, 1], height])
-    out_z = min(clear_height, height)
-    if out_z >= height - 1e-9:  # fed all the way up
-        centres = np.concatenate([up[None], over[None], entry])
-        lead = np.array([MoveKind.RETRACT, MoveKind.RAPID], np.int8)
-    elif out_z > float(end[2]) + 1e-9:  # fed out of the blank, then rapid
-        fed = np.array([end[0], end[1], out_z])
-        centres = np.concatenate([fed[None], up[None], over[None], entry])
-        lead = np.array([MoveKind.RETRACT, MoveKind.RAPID, MoveKind.RAPID], np.int8)
-    else:  # already clear of the blank
-        centres = np.concatenate([up[None], over[None], entry])
-        lead = np.array([MoveKind.RAPID, MoveKind.RAPID], np.int8)
-    return centres, np.concatenate([lead, kinds]), ramped
+    entry, kinds, ramped = entry_moves(start, direction, design, stock, settings, lowest)
+    lifted = end + np.array([0.0, 0.0, settings.lift])
+    line = _line(lifted, entry[0])
+    top = max(float(np.max(_ceiling(line, design, stock))), float(lifted[2]),
+              float(entry[0, 2]))
+    height = max(min(top + settings.clearance, settings.safe_height), top)
+    path = [lifted, np.array([lifted[0], lifted[1], height]),
+            np.array([entry[0, 0], entry[0, 1], height]), entry[0]]
+    lead = [MoveKind.RETRACT, MoveKind.RAPID, MoveKind.RAPID, MoveKind.RAPID]
+    keep = [0] + [i for i in range(1, 4) if np.linalg.norm(path[i] - path[i - 1]) > 1e-9]
+    centres = np.concatenate([np.stack([path[i] for i in keep]), entry[1:]])
+    return centres, np.concatenate([np.array([lead[i] for i in keep], np.int8), kinds[1:]]), ramped
 
 
 def refine_moves(centres: NDArray[np.float64], kind: NDArray[np.int8], design: DropCutter,

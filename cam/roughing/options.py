@@ -44,10 +44,14 @@ class RoughOptions:
     k : float
         Protection factor of eq. 1.
     clearance_mm : float
-        Height of link moves above the design and the blank envelope.
+        Height of link rapids above the stock left so far (blank top or the floor of
+        the layers above) and the design, along the link.
     entry_height_mm, entry_angle_deg : float
-        Entry (ramp or plunge) height above a run's first point and ramp angle from
-        the frame's horizontal; 90 plunges.
+        Approach clearance: the rapid approach stops this far above the stock at a
+        run's start, the entry (ramp or plunge at the plunge feed) cuts from there;
+        ramp angle from the frame's horizontal (90 plunges).
+    lift_mm : float
+        Feed lift along the tool axis at the end of a run before the rapids.
     safe_distance_mm : float
         Retract before index moves: this far beyond the highest point of part and
         blank along the fixed axis.
@@ -68,7 +72,7 @@ class RoughOptions:
     min_reach: float = 0.8
     k: float = 1.2
     clearance_mm: float = 2.0
-    entry_height_mm: float = 2.0
+    entry_height_mm: float = 1.0
     entry_angle_deg: float = 15.0
     safe_distance_mm: float = 10.0
     plunge_feed_ratio: float = 0.5
@@ -76,11 +80,12 @@ class RoughOptions:
     passages: int = 0
     design: str = "solid"
     tessellation_mm: float = 0.05
+    lift_mm: float = 1.0
 
     def __post_init__(self) -> None:
         positive = ("scallop_mm", "step_along_mm", "mesh_spacing_mm", "reach_tolerance_mm",
                     "k", "clearance_mm", "entry_height_mm", "safe_distance_mm",
-                    "plunge_feed_ratio", "direct_link_mm", "tessellation_mm")
+                    "plunge_feed_ratio", "direct_link_mm", "tessellation_mm", "lift_mm")
         for name in positive:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):

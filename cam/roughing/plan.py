@@ -14,8 +14,11 @@ result about +Z for the other passages. Here:
 * **Order and links** (both plans): layers alternate direction, so each layer ends
   above the start of the next; two consecutive runs are joined by one direct
   cutting move when it is at most ``direct_link_mm`` long and safe (drop-cutter
-  along it), otherwise by retract (at feed until the ball clears the blank by the
-  clearance), rapid at the link height, and a ramp or plunge.
+  along it), otherwise by a short feed lift, rapids at the lowest safe height over
+  the stock left so far (``stockmap.ZMap``, updated run by run) and the design, a
+  rapid approach to just above the stock at the next start and a ramp or plunge
+  (``linking.py``); a plunge may start lower where ``sweptstock.SweptStock`` knows
+  earlier regions cut the material.
 * **Feed moves between CL points** are refined: each is sampled every
   ``REFINE_STEP`` mm and the drop-cutter height inserted where the straight move
   would dip below it, so the ball keeps eta from the design along the moves, not
@@ -38,12 +41,14 @@ from cam.roughing.linking import LinkSettings, entry_moves, link_runs, refine_mo
 from cam.roughing.passage import PassageGrid
 from cam.roughing.passes import rotate_z, zigzag_order
 from cam.roughing.stock import Blank
-from cam.roughing.umr import UMR
+from cam.roughing.stockmap import ZMap
+from cam.roughing.sweptstock import SweptStock
+from cam.roughing.umr import UMR, FixedAxisFrame
 from postproc.toolpath import MoveKind
 
 __all__ = [
     "Segment", "clear_distance", "cutting_runs", "direct_kind", "region_segment",
-    "rotate_segment", "safe_height_of",
+    "rotate_segment", "safe_height_of", "stock_map",
 ]
 
 Progress = Callable[[int, int, str], None]
@@ -100,10 +105,18 @@ def direct_kind(a: NDArray[np.float64], b: NDArray[np.float64],
     return int(MoveKind.PLUNGE if float(np.dot(b - a, axis)) < -1e-6 else MoveKind.FEED)
 
 
-def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, envelope: DropCutter,
+def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: NDArray[np.float64],
                    radius: float, settings: LinkSettings, safe_height: float,
-                   direct_link: float) -> Segment:
-    """The 3+2 poses of one UMR in passage 0 (see module docstring)."""
+                   direct_link: float, reach: float = 0.0,
+                   prior: list[Segment] | None = None) -> Segment:
+    """The 3+2 poses of one UMR in passage 0 (see module docstring).
+
+    ``blank_triangles`` ``(m, 3, 3)``: the blank's closed boundary in W
+    (``Blank.closed_mesh``), the stock map's top. ``prior``: the segments of passage 0
+    cut before this one; with ``reach`` (the tool's cylinder above the ball centre,
+    mm) > 0 their cuts and this region's runs form a ``SweptStock`` that can start a
+    plunge lower than the region's own stock map knows.
+    """
     frame = umr.frame
     first_station, last_station = umr.stations
     targets = frame.to_frame(grid.centres[:, :, first_station:last_station + 1])
@@ -121,62 +134,107 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, envelope: DropCutt
     shadow = lift > depth
     keep = material & ~repeated & ~shadow
     (runs,) = cutting_runs(keep, local)
+    stock = stock_map(frame, grid, blank_triangles, radius)
+    swept = None
+    if reach > 0.0:
+        before = [_cut_chains(p.tip + radius * p.axis, p.axis, p.kind) for p in prior or []]
+        old = [c for chains in before for c in chains]
+        swept = SweptStock(blank, radius, reach, [c for c, _ in old] + [frame.to_world(r)
+                                                                          for r in runs],
+                           [a for _, a in old] + [np.broadcast_to(frame.axis, r.shape)
+                                                  for r in runs],
+                           [-1] * len(old) + list(range(len(runs))))
     up = np.array([0.0, 0.0, 1.0])
+
+    def lowest(index: int, start: NDArray[np.float64]) -> float | None:
+        """Frame height down to which the swept stock says a plunge is in air."""
+        if swept is None:
+            return None
+        top = float(max(stock.air_height(start[None])[0], start[2])) + settings.entry_height
+        if not np.isfinite(top):
+            return None
+        t = swept.approach(frame.to_world(start), frame.axis, top - float(start[2]), index)
+        return float(start[2]) + t
     centres: list[NDArray[np.float64]] = []
     kinds: list[NDArray[np.int8]] = []
-    counts = {"direct": 0, "full": 0, "ramps": 0, "plunges": 0}
+    counts = {"direct": 0, "full": 0, "ramps": 0, "plunges": 0, "refined": 0}
     last: NDArray[np.float64] = np.zeros(3)
 
-    def clear_height(point: NDArray[np.float64]) -> float:
-        return point[2] + clear_distance(frame.to_world(point), umr.axis, blank, radius,
-                                         settings.clearance)
+    def emit(piece: NDArray[np.float64], kind: NDArray[np.int8]) -> None:
+        """Refine the piece's cutting moves, sweep them into the stock, keep them."""
+        nonlocal last
+        lead = (last if centres else piece[0])[None]
+        c, k, added = refine_moves(np.concatenate([lead, piece]),
+                                   np.concatenate([[MoveKind.RAPID], kind]).astype(np.int8),
+                                   frame.cutter)
+        counts["refined"] += added
+        stock.sweep_moves(c, k)
+        centres.append(c[1:])
+        kinds.append(k[1:])
+        last = c[-1]
 
     for index, run in enumerate(runs):
         direction = run[1] - run[0] if len(run) > 1 else None
         if index == 0:
-            entry, entry_kind, ramped = entry_moves(run[0], direction, frame.cutter, settings)
+            entry, entry_kind, ramped = entry_moves(run[0], direction, frame.cutter, stock,
+                                                    settings, lowest(index, run[0]))
             top = entry[0].copy()
             top[2] = safe_height
-            centres += [top[None], entry]
-            kinds += [np.array([MoveKind.RAPID], np.int8), entry_kind]
+            piece, kind = np.concatenate([top[None], entry]), np.concatenate(
+                [[MoveKind.RAPID], entry_kind]).astype(np.int8)
             counts["ramps" if ramped else "plunges"] += 1
         elif (np.linalg.norm(run[0] - last) <= direct_link
               and _line_clear(last, run[0], frame.cutter)):
-            centres.append(run[0][None])
-            kinds.append(np.array([direct_kind(last, run[0], up)], np.int8))
+            piece = run[0][None]
+            kind = np.array([direct_kind(last, run[0], up)], np.int8)
             counts["direct"] += 1
         else:
-            link, link_kind, ramped = link_runs(last, run[0], direction, frame.cutter,
-                                                envelope, settings, clear_height(last))
-            centres.append(link)
-            kinds.append(link_kind)
+            piece, kind, ramped = link_runs(last, run[0], direction, frame.cutter, stock,
+                                            settings, lowest(index, run[0]))
             counts["full"] += 1
             counts["ramps" if ramped else "plunges"] += 1
-        centres.append(run[1:])
-        kinds.append(np.full(len(run) - 1, MoveKind.FEED, np.int8))
-        last = run[-1]
+        emit(np.concatenate([piece, run[1:]]),
+             np.concatenate([kind, np.full(len(run) - 1, MoveKind.FEED, np.int8)]))
     if centres:
-        out = last.copy()
-        out[2] = min(clear_height(last), safe_height)
+        out = last + np.array([0.0, 0.0, settings.lift])
         top = last.copy()
-        top[2] = safe_height
+        top[2] = max(safe_height, float(out[2]))
         centres += [out[None], top[None]]
         kinds.append(np.array([MoveKind.RETRACT, MoveKind.RAPID], np.int8))
         local_all = np.concatenate(centres)
         kind = np.concatenate(kinds)
-        local_all, kind, added = refine_moves(local_all, kind, frame.cutter)
     else:
         local_all = np.zeros((0, 3))
         kind = np.zeros(0, np.int8)
-        added = 0
     world_centres = frame.to_world(local_all)
     tip = world_centres - radius * frame.axis
     axis = np.broadcast_to(frame.axis, tip.shape).copy()
     notes = {"direct_links": float(counts["direct"]), "full_links": float(counts["full"]),
-             "refined": float(added), "runs": float(len(runs)),
+             "refined": float(counts["refined"]), "runs": float(len(runs)),
              "shadow_points": float((material & shadow).sum())}
     return Segment(tip, axis, kind, True, umr.index, 0, counts["ramps"], counts["plunges"],
                    int(keep.sum()), notes)
+
+
+def _cut_chains(centres: NDArray[np.float64], axes: NDArray[np.float64],
+                kind: NDArray[np.int8]) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """Chains of consecutive non-rapid moves (with their start poses) of a segment."""
+    rapid = np.concatenate([[True], kind[1:] == MoveKind.RAPID])
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], (~rapid).astype(np.int8), [0]])))
+    return [(centres[a - 1:b], axes[a - 1:b]) for a, b in zip(edges[::2], edges[1::2],
+                                                               strict=True)]
+
+
+def stock_map(frame: FixedAxisFrame, grid: PassageGrid, blank_triangles: NDArray[np.float64],
+              radius: float, margin: float = 40.0, cell: float = 0.5) -> ZMap:
+    """A fresh stock map (the blank, nothing cut) of passage 0 in a UMR's frame.
+
+    It covers the frame XY of every target of the passage plus ``margin`` mm (links and
+    ramps); ``blank_triangles`` in W.
+    """
+    xy = frame.to_frame(grid.centres.reshape(-1, 3))[:, :2]
+    lo, hi = xy.min(axis=0) - margin, xy.max(axis=0) + margin
+    return ZMap(lo, hi, blank_triangles @ frame.matrix.T, radius, cell)
 
 
 def _line_clear(a: NDArray[np.float64], b: NDArray[np.float64], cutter: DropCutter,

@@ -54,3 +54,27 @@ class Blank:
         from cam.finishing.scene import grid_mesh
 
         return grid_mesh(grid)
+
+    def closed_mesh(self, z_bottom: float = 0.0, sections: int = 180,
+                    samples: int = 60) -> trimesh.Trimesh:
+        """``mesh`` plus the outer boundary below the offset shroud's outlet end.
+
+        The offset shroud ends at the outlet below ``r_out``; the blank goes on out
+        to ``r_out`` (an annulus at that height) and down the outer cylinder to
+        ``z_bottom`` (the hub's back face, z = 0 in W): seen along any axis from the
+        spindle side, the first point of this mesh met from outside is the blank's
+        boundary (``ZMap``'s top ``T``; the frames' safe heights clear it).
+        """
+        from cam.finishing.scene import grid_mesh
+
+        end = self.shroud.meridian(np.array([1.0])) - self.allowance * (
+            self.shroud.meridian_normal(np.array([1.0])))
+        z_end, r_end = float(end[0, 0]), float(end[0, 1])
+        phi = np.linspace(0.0, 2.0 * math.pi, sections + 1)
+        z = np.array([z_end, z_end, z_bottom])
+        r = np.array([r_end, self.r_out, self.r_out])
+        rim = np.stack([r[:, None] * np.cos(phi), r[:, None] * np.sin(phi),
+                        np.broadcast_to(z[:, None], (len(z), len(phi)))], axis=-1)
+        whole = trimesh.util.concatenate([self.mesh(sections, samples), grid_mesh(rim)])
+        assert isinstance(whole, trimesh.Trimesh)
+        return whole

@@ -93,6 +93,37 @@ def test_no_collision(rough: tuple[Path, dict]) -> None:
     assert doc["collisions"] == 0, doc["hits"]
 
 
+def test_baseline_is_a_valid_program(rough: tuple[Path, dict]) -> None:
+    """The simultaneous five-axis baseline is held to the same checks: every move
+    (python-fcl, holder included) and the ball's allowance."""
+    _, doc = rough
+    eta = doc["finishing_allowance_mm"]
+    assert doc["baseline_moves_checked"] > 1000
+    assert doc["baseline_collisions"] == 0
+    assert doc["baseline_min_allowance_mm"] >= eta - 1e-6
+    notes = doc["plan_notes"]["5axis"][0]
+    assert notes["retilted"] > 0  # the blended-ruling axis had to be re-tilted
+
+
+def test_rapids_stay_in_air(rough: tuple[Path, dict]) -> None:
+    """No rapid move of either plan cuts: replayed against the stock models
+    (cam.roughing.aircheck)."""
+    _, doc = rough
+    checked = doc["rapid_moves_checked"]
+    assert checked["3axis"] > 50 and checked["5axis"] > 5
+    assert doc["rapids_in_stock"] == {"3axis": 0, "5axis": 0}
+
+
+def test_links_lift_briefly_then_rapid(rough: tuple[Path, dict]) -> None:
+    """Retracts are the short feed lift only (the rest of every link is rapid)."""
+    _, doc = rough
+    lift = doc["options"]["lift_mm"]
+    for plan in ("3axis", "5axis"):
+        retract = doc["time_breakdown"][plan]["1000"]["retract"]
+        assert retract["moves"] > 0
+        assert retract["length_mm"] == pytest.approx(retract["moves"] * lift, rel=1e-6)
+
+
 def test_allowance_against_independent_stl(rough: tuple[Path, dict], tmp_path: Path) -> None:
     """Ball surfaces stay eta from the design at every pose and along every cutting
     move: exact distances to an STL of a finer, separately built design mesh."""
@@ -105,8 +136,9 @@ def test_allowance_against_independent_stl(rough: tuple[Path, dict], tmp_path: P
     assert doc["min_allowance_mm"] >= eta - 1e-6
 
 
-@pytest.mark.xfail(strict=True, reason="measured: on this fixture and machine the 3+2 UMR "
-                   "total is longer than the simultaneous 5-axis baseline (see "
+@pytest.mark.xfail(strict=True, reason="measured: with both programs linked alike and the "
+                   "baseline valid, the 3+2 UMR total is 1.3-1.7 % longer (nominal) than the "
+                   "simultaneous 5-axis baseline on this fixture and machine (see "
                    "test_time_comparison_as_measured and docs/roughing.md)")
 def test_three_axis_faster_than_five_axis(rough: tuple[Path, dict]) -> None:
     _, doc = rough
@@ -116,19 +148,20 @@ def test_three_axis_faster_than_five_axis(rough: tuple[Path, dict]) -> None:
 
 def test_time_comparison_as_measured(rough: tuple[Path, dict]) -> None:
     """What holds on nine_blade (docs/roughing.md, 'Why 3+2 is not shorter here'):
-    the 3+2 plan cuts no longer a path than the baseline, yet its total is longer,
-    and the difference is its extra entries, links and retracts (each UMR and
-    passage starts and ends clear of the blank), not slower cutting."""
+    the 3+2 plan cuts a shorter path than the baseline, and its excess is its extra
+    entries (plunges and ramps), lifts and rapids: every UMR re-enters every layer."""
     _, doc = rough
     split = doc["time_breakdown"]
     for feed in FEEDS:
         three, five = doc["time_min"]["3axis"][feed], doc["time_min"]["5axis"][feed]
-        assert three > five
         s3, s5 = split["3axis"][feed], split["5axis"][feed]
-        assert s3["feed"]["length_mm"] <= s5["feed"]["length_mm"]
+        assert s3["feed"]["length_mm"] < s5["feed"]["length_mm"]
         overhead3 = three - s3["feed"]["nominal_min"]
         overhead5 = five - s5["feed"]["nominal_min"]
-        assert overhead3 - overhead5 >= three - five
+        assert overhead3 > overhead5
+        assert s3["plunge"]["length_mm"] > s5["plunge"]["length_mm"]
+        # the two totals are within the overhead difference of each other
+        assert abs(three - five) < overhead3 - overhead5
         # nominal times scale with 1/feed up to rapids and index moves
         assert doc["time_min"]["3axis"]["500"] / three == pytest.approx(
             int(feed) / 500, rel=0.02)

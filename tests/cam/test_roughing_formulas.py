@@ -176,3 +176,147 @@ def test_splitter_passage_has_three_lanes() -> None:
     assert lanes[1].suction is surfaces.splitters[0] and lanes[2].pressure is surfaces.splitters[0]
     nine = build_surfaces(load_spec(root / "fixtures/impellers/nine_blade/spec.toml"))
     assert [lane.name for lane in passage_lanes(nine)] == ["passage"]
+
+
+# --- linking, stock models and the five-axis re-tilt (hand-computed cases) ---------
+
+def _flat(z: float, size: float = 60.0) -> np.ndarray:
+    """Two triangles of the plane at height z over [-size, size]^2."""
+    return np.array([[[-size, -size, z], [size, -size, z], [size, size, z]],
+                     [[-size, -size, z], [size, size, z], [-size, size, z]]])
+
+
+def test_zmap_air_height_blank_and_swept_column() -> None:
+    from cam.roughing.stockmap import ZMap
+
+    zmap = ZMap(np.array([-20.0, -20.0]), np.array([20.0, 20.0]), _flat(10.0), 2.0)
+
+    def air(x: float, y: float, conservative: bool = False) -> float:
+        return float(zmap.air_height(np.array([[x, y]]), conservative)[0])
+
+    # over the uncut blank (top z = 10) a ball is in air from centre height 10 + R
+    assert air(0.0, 0.0) == pytest.approx(12.0, abs=1e-9)
+    assert air(0.0, 0.0, True) == pytest.approx(12.0, abs=1e-9)
+    # a ball swept along x at centre height 6: its own column is air down to 6 ...
+    zmap.sweep(np.column_stack([np.linspace(-5, 5, 41), np.zeros(41), np.full(41, 6.0)]))
+    assert air(0.0, 0.0) == pytest.approx(6.0, abs=1e-9)
+    # ... and 1 mm to the side the uncut rim beyond y = 2 (ground 10, the blank top)
+    # decides: its nearest nodes, at y = 2.5 (d = 1.5), give 10 + sqrt(4 - 1.5^2)
+    assert air(0.0, 1.0) == pytest.approx(10.0 + math.sqrt(4.0 - 1.5 ** 2), abs=1e-9)
+    # the planner's conservative view: the groove's wall may stand anywhere within
+    # cell / sqrt(2) of the first uncut node, one cell nearer (3 x 3 dilation): the
+    # wall at |y| = 2 now counts from |y| = 2.5 - 0.5 - 0.354 = 1.646 on
+    e = 2.5 - 0.5 - 0.5 / math.sqrt(2.0)
+    assert air(0.0, 0.0, True) == pytest.approx(10.0 + math.sqrt(4.0 - e * e), abs=1e-9)
+    assert air(0.0, 1.0, True) >= air(0.0, 1.0)
+    # off the map: unknown, so never air
+    assert air(19.5, 0.0) == np.inf
+
+
+def test_rapids_in_stock_replay() -> None:
+    from cam.roughing.stockmap import ZMap, rapids_in_stock
+    from postproc.toolpath import MoveKind
+
+    def fresh() -> ZMap:
+        return ZMap(np.array([-30.0, -30.0]), np.array([30.0, 30.0]), _flat(10.0), 2.0)
+
+    # plunge from air (z 13) to 6 at x = -10, cut to x = 10, lift 1 mm, rapid up to 12.5
+    # (above the blank top + R), across and down again over the cut groove to 7
+    c = np.array([[-10, 0, 13.0], [-10, 0, 6.0], [10, 0, 6.0], [10, 0, 7.0],
+                  [10, 0, 12.5], [-5, 0, 12.5], [-5, 0, 7.0]])
+    k = np.array([MoveKind.RAPID, MoveKind.PLUNGE, MoveKind.FEED, MoveKind.RETRACT,
+                  MoveKind.RAPID, MoveKind.RAPID, MoveKind.RAPID], np.int8)
+    bad, rapids, depth = rapids_in_stock(fresh(), c, k)
+    assert (bad, rapids) == (0, 3) and depth <= 0.0
+    # the same rapid down at y = 3 (beside the groove) goes through uncut stock
+    c2 = c.copy()
+    c2[5:, 1] = 3.0
+    bad, _, depth = rapids_in_stock(fresh(), c2, k)
+    assert bad == 1 and depth == pytest.approx(12.0 - 7.0, abs=0.05)
+
+
+def test_link_lifts_rapids_over_the_stock_and_plunges_from_above_it() -> None:
+    from cam.roughing.linking import LinkSettings, link_runs
+    from cam.roughing.stockmap import ZMap
+    from postproc.toolpath import MoveKind
+
+    design = DropCutter(_flat(-100.0), 2.5)  # far below: the stock alone decides
+    stock = ZMap(np.array([-30.0, -30.0]), np.array([30.0, 30.0]), _flat(10.0), 2.0)
+    run = np.column_stack([np.linspace(0, 20, 21), np.zeros(21), np.full(21, 8.0)])
+    stock.sweep(run)
+    settings = LinkSettings(clearance=2.0, entry_height=1.0, entry_angle_deg=90.0, lift=0.5)
+    start = np.array([0.0, 6.0, 8.0])  # beside the groove: uncut, blank top 10
+    c, k, ramped = link_runs(run[-1], start, None, design, stock, settings)
+    assert not ramped
+    assert k.tolist() == [MoveKind.RETRACT, MoveKind.RAPID, MoveKind.RAPID, MoveKind.RAPID,
+                          MoveKind.PLUNGE]
+    assert np.allclose(c[0], run[-1] + [0, 0, 0.5])  # feed lift of 0.5 mm
+    # plunge top: the blank top + R (air) + entry height = 10 + 2 + 1
+    assert np.allclose(c[3], [0.0, 6.0, 13.0]) and np.allclose(c[4], start)
+    # link height: the highest of air along the line (12), lift and entry top (13),
+    # plus the clearance
+    assert c[1, 2] == pytest.approx(15.0) and c[2, 2] == pytest.approx(15.0)
+    # entering inside a cleared pocket instead: two passes at y = -1.5 and 1.5 leave a
+    # cusp at y = 0, 6 - sqrt(2^2 - 1.5^2) high: the plunge starts 1 mm above the
+    # lowest ball centre that clears it, not above the blank
+    pocket = ZMap(np.array([-30.0, -30.0]), np.array([30.0, 30.0]), _flat(10.0), 2.0)
+    zigzag = np.array([[0, -1.5, 6.0], [20, -1.5, 6.0], [20, 1.5, 6.0], [0, 1.5, 6.0]])
+    pocket.sweep(zigzag)
+    start = np.array([5.0, 0.0, 6.0])
+    cusp = 6.0 - math.sqrt(4.0 - 1.5 ** 2)
+    c, k, _ = link_runs(zigzag[-1], start, None, design, pocket, settings)
+    assert np.allclose(c[-2], [5.0, 0.0, cusp + 2.0 + 1.0])
+    assert cusp + 3.0 + 2.0 <= c[1, 2] <= 12.0 + 2.0  # never above the blank's air
+
+
+class _BoxBlank:
+    """A stand-in blank: the box |x|, |y| <= 50, z <= 10."""
+
+    def touches(self, centres: np.ndarray, radius: float) -> np.ndarray:
+        c = np.asarray(centres).reshape(-1, 3)
+        out = (np.abs(c[:, 0]) - radius < 50) & (np.abs(c[:, 1]) - radius < 50) & (
+            c[:, 2] - radius < 10)
+        return out.reshape(np.shape(centres)[:-1])
+
+
+def test_swept_stock_air_in_the_tool_tube_only_after_the_cut() -> None:
+    from cam.roughing.sweptstock import SweptStock
+
+    run = np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0]])
+    axes = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])
+    swept = SweptStock(_BoxBlank(), 2.0, 30.0, [run], [axes])  # type: ignore[arg-type]
+    above = np.array([[5.0, 0.0, 4.0]])  # in the swept tube over the run
+    beside = np.array([[5.0, 1.0, 4.0]])  # 1 mm out of it: its ball meets uncut stock
+    assert swept.air(above, before=1)[0] and not swept.air(above, before=0)[0]
+    assert not swept.air(beside, before=1)[0]
+    assert swept.air(np.array([[5.0, 1.0, 12.5]]), before=0)[0]  # above the blank
+    # coming down the axis over (10, 0): in air down to the run's end (t = 0)
+    assert swept.approach(np.array([10.0, 0.0, 0.0]), axes[0], 14.0, 1) == 0.0
+    # over a point beside the run: only above the blank (shrunk ball bottom >= 10,
+    # sampled every 0.5 mm)
+    t = swept.approach(np.array([20.0, 0.0, 0.0]), axes[0], 14.0, 1)
+    assert 12.0 - swept.shrink - 0.5 <= t <= 12.0
+
+
+def test_retilt_turns_the_flutes_off_a_wall() -> None:
+    from cam.collision.triangle_bvh import TriangleBVH
+    from cam.roughing.retilt import clearance_of, retilt
+
+    tool = resolve_tool("ball10")
+    # a wall x = 0 from z = -10 to 20 (the ball centre 6 mm from it)
+    wall = np.array([[[0, -40, -10.0], [0, 40, -10.0], [0, 40, 20.0]],
+                     [[0, -40, -10.0], [0, 40, 20.0], [0, -40, 20.0]]])
+    centre = np.array([[6.0, 0.0, 0.0]])
+    lean = math.radians(5.0)
+    axis = np.array([[-math.sin(lean), 0.0, math.cos(lean)]])  # leaning into the wall
+    bvh = TriangleBVH(wall)
+    _, before = clearance_of(bvh, centre, axis, tool, 2.0)
+    # the tool's cylinder (radius 5) at the wall's top (z = 20) leans 20 tan 5 deg
+    # towards it (outline sampled every 1 mm)
+    assert before[0] == pytest.approx(6.0 - 5.0 - 20.0 * math.tan(lean), abs=0.1)
+    new, tilted, unresolved = retilt(centre, axis, tool, wall, 0.5, margin=0.15)
+    assert tilted[0] and not unresolved[0]
+    assert np.linalg.norm(new[0]) == pytest.approx(1.0)
+    _, after = clearance_of(bvh, centre, new, tool, 2.0)
+    assert after[0] >= 0.5 + 0.15 - 1e-6
+    assert new[0, 0] > axis[0, 0]  # turned away from the wall

@@ -70,6 +70,14 @@ def test_no_collision(rough: tuple[Path, dict]) -> None:
     assert doc["collisions"] == 0, doc["hits"]
 
 
+def test_baseline_valid_and_rapids_in_air(rough: tuple[Path, dict]) -> None:
+    _, doc = rough
+    assert doc["baseline_moves_checked"] > 500 and doc["baseline_collisions"] == 0
+    assert doc["baseline_min_allowance_mm"] >= doc["finishing_allowance_mm"] - 1e-6
+    assert min(doc["rapid_moves_checked"].values()) > 5
+    assert doc["rapids_in_stock"] == {"3axis": 0, "5axis": 0}
+
+
 def test_allowance_against_independent_stl(rough: tuple[Path, dict], tmp_path: Path) -> None:
     out, doc = rough
     centres = pose_and_move_centres(out, doc, 3.0, (-np.pi, np.pi))
@@ -77,12 +85,14 @@ def test_allowance_against_independent_stl(rough: tuple[Path, dict], tmp_path: P
     assert dist.min() - 3.0 >= eta - 0.02
 
 
-def test_time_comparison_reported(rough: tuple[Path, dict]) -> None:
-    """Both plans are timed at the four feeds; the relation found is documented in
-    docs/roughing.md (the 3+2 plan cuts no longer a path than the baseline)."""
+def test_three_axis_faster_than_five_axis(rough: tuple[Path, dict]) -> None:
+    """Measured on this fixture (docs/roughing.md): with both programs linked alike and
+    the baseline valid, the 3+2 plan is shorter at all four feeds, nominal and with
+    the machine's limits; it cuts a shorter path, its extra entries cost less."""
     _, doc = rough
     for feed in FEEDS:
-        assert doc["time_min"]["3axis"][feed] > 0 and doc["time_min"]["5axis"][feed] > 0
+        for field in ("time_min", "time_limited_min"):
+            assert doc[field]["3axis"][feed] < doc[field]["5axis"][feed]
         s3 = doc["time_breakdown"]["3axis"][feed]
         s5 = doc["time_breakdown"]["5axis"][feed]
         assert s3["feed"]["length_mm"] <= s5["feed"]["length_mm"]
