@@ -27,14 +27,22 @@ def blank_profile(
     allowance: float,
     bore_radius: float,
     hub_contour: NDArray[np.float64] | None = None,
+    blade_top: float | None = None,
 ) -> NDArray[np.float64]:
     """Meridional polygon (k, 2) of (r, z), mm, of the lathe-turned blank.
 
     The shroud contour (z, r), inlet to outlet, is offset outwards by ``allowance``
-    along its meridional normal; the blank runs from the back face z = 0 up to the
-    highest contour point plus the allowance (a hub nose may stand above the inlet),
-    from the bore out to the largest contour radius plus the allowance (a hub rim may
-    reach beyond the blade tips).
+    along its meridional normal; the blank runs from the back face z = 0, from the
+    bore out to the largest contour radius plus the allowance (a hub rim may reach
+    beyond the blade tips).
+
+    Without ``hub_contour`` the top is flat at the highest contour point plus the
+    allowance. With it, the inlet end is turned as a lathe would leave it for milling:
+    a flat inlet face at ``max(offset shroud inlet, blade_top + allowance)``
+    (``blade_top``: highest z of the blades, mm, e.g. of their camber lines), and
+    where the hub nose stands above that face, the nose turned to its final contour
+    (no allowance: no milling operation reaches it, and a cutter's shank passing over
+    the inlet must not meet stock that the design does not have).
     """
     contour = np.asarray(shroud_contour, dtype=np.float64)
     r, z = contour[:, 1], contour[:, 0]
@@ -46,12 +54,32 @@ def blank_profile(
     off_r, off_z = r + allowance * nr, z + allowance * nz
     both = contour if hub_contour is None else np.vstack([contour, hub_contour])
     r_max = float(both[:, 1].max()) + allowance
-    z_top = float(both[:, 0].max()) + allowance
-    order = np.argsort(-off_r)  # outlet (large r) first, then towards the inlet
+    order = np.arange(len(r))[::-1]  # outlet first, then along the contour to the inlet
+    if hub_contour is None:
+        z_top = float(both[:, 0].max()) + allowance
+        pts = [(bore_radius, 0.0), (r_max, 0.0), (r_max, float(off_z[order[0]]))]
+        pts += [(float(off_r[i]), float(min(off_z[i], z_top))) for i in order]
+        pts += [(float(off_r[order[-1]]), z_top), (bore_radius, z_top), (bore_radius, 0.0)]
+        return np.array(pts)
+    hub = np.asarray(hub_contour, dtype=np.float64)
+    top = -np.inf if blade_top is None else blade_top + allowance
+    face = max(float(off_z[order[-1]]), top)
     pts = [(bore_radius, 0.0), (r_max, 0.0), (r_max, float(off_z[order[0]]))]
-    pts += [(float(off_r[i]), float(min(off_z[i], z_top))) for i in order]
-    pts += [(float(off_r[order[-1]]), z_top), (bore_radius, z_top), (bore_radius, 0.0)]
-    return np.array(pts)
+    pts += [(float(off_r[i]), float(min(off_z[i], face))) for i in order]
+    pts.append((float(off_r[order[-1]]), face))
+    above = hub[:, 0] > face  # the nose above the inlet face, z descending from the nose
+    if above.any():
+        inlet = np.argsort(hub[:, 0])  # ascending z for the crossing of the face
+        r_face = float(np.interp(face, hub[inlet, 0], hub[inlet, 1]))
+        pts.append((r_face, face))
+        pts += [(float(rr), float(zz)) for zz, rr in hub[above][::-1]]
+        pts.append((bore_radius, float(hub[above, 0].max())))
+    else:
+        pts.append((bore_radius, face))
+    pts.append((bore_radius, 0.0))
+    profile = np.array(pts)
+    keep = np.r_[True, np.linalg.norm(np.diff(profile, axis=0), axis=1) > 1e-9]
+    return profile[keep]
 
 
 def _load_mesh(path: Path, field: str) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
@@ -102,9 +130,9 @@ def load_stock(argument: str, resolution: float) -> Stock:
         from geometry.spec import load_spec
 
         spec = load_spec(path)
-        profile = blank_profile(
-            spec.shroud_contour, spec.stock_allowance, spec.bore_radius, spec.hub_contour
-        )
+        blade_top = float(max(spec.hub_camber[:, 2].max(), spec.shroud_camber[:, 2].max()))
+        profile = blank_profile(spec.shroud_contour, spec.stock_allowance, spec.bore_radius,
+                                spec.hub_contour, blade_top)
         return Stock.revolved(profile, resolution)
     if suffix in MESH_SUFFIXES:
         vertices, faces = _load_mesh(path, "--stock")

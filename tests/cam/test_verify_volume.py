@@ -231,6 +231,25 @@ def test_blank_profile_of_a_spec_contour() -> None:
         assert gap == pytest.approx(1.0, abs=0.05)
 
 
+def test_blank_profile_turns_the_inlet_face_and_nose() -> None:
+    """With the hub: a flat inlet face at the blade top + allowance, the nose above it
+    at its final contour (hand-made contours: horizontal-entry shroud, vertical nose)."""
+    from cam.verify.sources import blank_profile
+
+    shroud = np.array([[20.0, 22.0], [15.0, 22.0], [10.0, 25.0], [9.0, 35.0]])  # z, r
+    hub = np.array([[30.0, 9.0], [25.0, 9.0], [20.0, 9.0], [5.0, 18.0], [4.0, 39.0]])
+    profile = blank_profile(shroud, 1.0, 4.0, hub, blade_top=21.0)
+    assert profile[0].tolist() == [4.0, 0.0] and profile[-1].tolist() == [4.0, 0.0]
+    assert profile[:, 0].max() == pytest.approx(40.0)  # hub rim 39 + allowance
+    # inlet face at max(offset shroud inlet z = 20, blade top 21 + 1) = 22
+    face = profile[np.isclose(profile[:, 1], 22.0)]
+    assert face[:, 0].min() == pytest.approx(9.0) and face[:, 0].max() == pytest.approx(23.0)
+    # the nose above the face is the hub contour itself (no allowance), then the bore
+    assert [9.0, 25.0] in profile.tolist() and [9.0, 30.0] in profile.tolist()
+    assert profile[:, 1].max() == pytest.approx(30.0)
+    assert profile[-2].tolist() == [4.0, 30.0]
+
+
 def test_signed_distance_of_a_box() -> None:
     import trimesh
 
