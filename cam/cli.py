@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -149,6 +149,68 @@ def post_command(
     )
 
 
+@app.command("run")
+def run_command(
+    specs: Annotated[list[Path], typer.Argument(help="Impeller spec(s); several: a batch.")],
+    machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML.")],
+    out: Annotated[Path, typer.Option("-o", "--out", help="Output folder.")],
+    tool: Annotated[
+        str | None, typer.Option("-t", "--tool", help="Tool for both operations "
+                                 "(NAME or LIBRARY.toml:NAME).")
+    ] = None,
+    rough_tool: Annotated[
+        str | None, typer.Option("--rough-tool", help="Roughing tool (over the spec's).")
+    ] = None,
+    finish_tool: Annotated[
+        str | None, typer.Option("--finish-tool", help="Finishing tool (over the spec's).")
+    ] = None,
+    post: Annotated[
+        str | None, typer.Option("--post", help="Post-processor (default: the machine's).")
+    ] = None,
+    stage: Annotated[
+        str | None, typer.Option("--stage", help="Rerun this stage alone from the outputs "
+                                 "on disk (geometry, rough, finish, post, verify, motion, "
+                                 "report).")
+    ] = None,
+    start: Annotated[
+        str | None, typer.Option("--from", help="Run from this stage to the end.")
+    ] = None,
+    resolution: Annotated[
+        float | None, typer.Option("--resolution", help="Verification dexel spacing, mm "
+                                   "(over the spec's).")
+    ] = None,
+    scheduler: Annotated[
+        str | None, typer.Option("--scheduler", help="Batch: address of a running Dask "
+                                 "scheduler (default: a local cluster).")
+    ] = None,
+    workers: Annotated[int, typer.Option(help="Batch: local Dask worker processes.")] = 2,
+) -> None:
+    """The whole chain: geometry, rough, finish, post, verify, motion, report.html."""
+    settings: dict[str, object] = {}
+    if resolution is not None:
+        settings["verify_resolution_mm"] = resolution
+    options: dict[str, Any] = dict(rough_tool=rough_tool, finish_tool=finish_tool, tool=tool,
+                                   post=post,
+                                   only=stage, start=start, **settings)
+    if len(specs) == 1 and scheduler is None:
+        from cam.run import run_chain
+
+        run_chain(specs[0], machine, out, **options)
+        return
+    from cam.run import run_batch
+
+    summary = run_batch(list(specs), machine, out, scheduler=scheduler, workers=workers,
+                        **options)
+    for entry in summary["specs"]:
+        where = f" in stage {entry['stage']}" if entry["stage"] else ""
+        line = f"{entry['name']}: {entry['status']}{where} ({entry['seconds']:.0f} s)"
+        typer.echo(line if entry["status"] == "done" else f"{line}: {entry['error']}",
+                   err=entry["status"] != "done")
+    if summary["failed"]:
+        kinds = {e["kind"] for e in summary["specs"] if e["status"] == "failed"}
+        raise typer.Exit(code=2 if kinds == {"input"} else 1)
+
+
 @app.command("posts")
 def posts_command() -> None:
     """List the registered post-processors (built-ins and entry-point plug-ins)."""
@@ -169,7 +231,7 @@ _mount_motion()
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI and map errors to exit codes (2 bad input, 1 internal error)."""
     try:
-        app(args=argv, standalone_mode=False)
+        code = app(args=argv, standalone_mode=False)
     except InputError as error:
         typer.echo(f"impeller-cam: error: {error}", err=True)
         return 2
@@ -188,7 +250,7 @@ def main(argv: list[str] | None = None) -> int:
             raise
         typer.echo(f"impeller-cam: internal error: {type(error).__name__}: {error}", err=True)
         return 1
-    return 0
+    return code if isinstance(code, int) else 0  # typer.Exit(code) in non-standalone mode
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -30,11 +30,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import tomli_w
 from numpy.typing import NDArray
 from scipy.integrate import cumulative_trapezoid
 from scipy.interpolate import PchipInterpolator
 
 from geometry.camber import cylindrical_to_cartesian
+from geometry.machining import read_machining
 from geometry.spec import EDGE_SHAPES, MIN_SPLINE_POINTS, ImpellerSpec
 from geometry.validate import check_spec_geometry
 from impeller_cam.atomic import staged_directory, write_text_atomic
@@ -97,6 +99,9 @@ class DesignParameters:
     fillet_radius, splitters, splitter_start, stock_allowance, finishing_allowance
         Passed to the spec unchanged (see ``ImpellerSpec``); a constant thickness is
         ``thickness_u = (0, 1)`` with two equal values.
+    machining_toml : str
+        The ``[machining]`` table (TOML text, validated by
+        ``geometry.machining.read_machining``) copied to the end of the spec.
     """
 
     name: str
@@ -125,6 +130,7 @@ class DesignParameters:
     splitter_start: float = 0.35
     stock_allowance: float = 2.0
     finishing_allowance: float = 0.5
+    machining_toml: str = ""
 
     def __post_init__(self) -> None:
         _validate(self)
@@ -176,6 +182,7 @@ class GeneratedDesign:
             shroud_contour=self.shroud_contour,
             thickness_u=np.asarray(p.thickness_u, dtype=np.float64),
             thickness_mm=np.asarray(p.thickness_mm, dtype=np.float64),
+            machining=read_machining(tomllib.loads(p.machining_toml)),
             **{key: getattr(p, key) for key in same},
         )
 
@@ -468,6 +475,7 @@ def spec_toml_text(design: GeneratedDesign) -> str:
         f"[splitters]\ncount = {p.splitters}\nstart_fraction = {_short_num(p.splitter_start)}\n\n"
         f"[allowances]\nstock_mm = {_short_num(p.stock_allowance)}\n"
         f"finishing_mm = {_short_num(p.finishing_allowance)}\n"
+        + ("\n" + p.machining_toml if p.machining_toml else "")
     )
 
 
@@ -581,6 +589,9 @@ def _design_kwargs(data: dict[str, Any], path: Path) -> dict[str, Any]:
         value = _lookup(data, dotted)
         if value is not ...:
             kwargs[attr] = value
+    if "machining" in data:
+        read_machining(data, path)
+        kwargs["machining_toml"] = tomli_w.dumps({"machining": data["machining"]})
     return kwargs
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import csv
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import PchipInterpolator
 
+from geometry.machining import MachiningSettings, read_machining
 from impeller_cam.errors import InputError
 
 #: Fewest points a cubic spline through data needs.
@@ -62,6 +63,8 @@ class ImpellerSpec:
         Blank allowance over the shroud envelope, mm.
     finishing_allowance : float
         Finishing allowance eta, mm.
+    machining : MachiningSettings
+        The optional ``[machining]`` table (tools and job settings of ``run``).
     """
 
     name: str
@@ -82,6 +85,7 @@ class ImpellerSpec:
     splitter_start: float
     stock_allowance: float
     finishing_allowance: float
+    machining: MachiningSettings = field(default_factory=MachiningSettings)
 
     @property
     def pitch(self) -> float:
@@ -433,6 +437,7 @@ def load_spec(path: str | Path) -> ImpellerSpec:
         splitter_start=r.number("splitters.start_fraction", 0.35, minimum=0.05, maximum=0.9),
         stock_allowance=r.number("allowances.stock_mm", 2.0, minimum=0.0),
         finishing_allowance=r.number("allowances.finishing_mm", 0.5, minimum=0.0),
+        machining=read_machining(data, path),
     )
     # Geometric consistency (camber on contours, monotone meridional coordinate,
     # hub and shroud not crossing) needs the interpolated curves and surfaces.

@@ -303,9 +303,10 @@ def run_verify(
 
     work.owners = owners
     kept, counts = _cap(events)
+    # events of blocks from an earlier run (a loaded .npz stock) sort first
     order = {p.name: i for i, p in enumerate(programs)}
     type_order = {t: i for i, t in enumerate(EVENT_TYPES)}
-    kept.sort(key=lambda e: (order[e.program], e.line, type_order[e.type], -e.amount))
+    kept.sort(key=lambda e: (order.get(e.program, -1), e.line, type_order[e.type], -e.amount))
     remaining = work.volume()
     result: dict[str, Any] = {
         "format": "impeller-cam verify",

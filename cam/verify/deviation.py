@@ -32,6 +32,9 @@ from scipy.spatial import cKDTree
 
 #: Points per chunk of the distance query (bounds memory).
 CHUNK = 100_000
+#: Inside answers deeper than this are made exact (``DesignDistance.__call__``), mm;
+#: shallower ones lie on the surface either way (far below any gouge tolerance).
+EXACT_BELOW = 0.005
 
 
 class DesignDistance:
@@ -72,33 +75,58 @@ class DesignDistance:
         keep = length > 2e-6 * longest**2
         self.triangles = self.triangles[keep]
         self.normals = normals[keep] / length[keep, None]
-        self.tree = cKDTree(self.triangles.mean(axis=1))
+        centroids = self.triangles.mean(axis=1)
+        self.tree = cKDTree(centroids)
         self.candidates = int(min(candidates, len(self.triangles)))
+        #: farthest vertex from its triangle's centroid: a triangle whose centroid lies
+        #: farther than ``d + reach`` from a point cannot be closer than ``d`` to it
+        self.reach = float(np.linalg.norm(self.triangles - centroids[:, None], axis=2).max())
 
     def __call__(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Signed distances (n,) of points (n, 3), mm: + outside, - inside the design."""
-        import trimesh
+        """Signed distances (n,) of points (n, 3), mm: + outside, - inside the design.
 
+        Inside answers deeper than ``EXACT_BELOW`` (the gouge candidates) are made
+        exact: the candidate set grows
+        until the ``k``-th nearest centroid lies beyond ``|d| + reach``, so the closest
+        triangle cannot be missed (a missed one can flip the sign, e.g. beyond the cut
+        edge of a thin blade).
+        """
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         out = np.empty(len(points))
-        k = self.candidates
         for s in range(0, len(points), CHUNK):
             p = points[s : s + CHUNK]
-            _, idx = self.tree.query(p, k=k)
-            idx = np.asarray(idx).reshape(len(p), k)
-            rep = np.repeat(p, k, axis=0)
-            q = trimesh.triangles.closest_point(self.triangles[idx.ravel()], rep)
-            diff = (rep - q).reshape(len(p), k, 3)
-            dist = np.linalg.norm(diff, axis=2)
-            dot = np.einsum("nkc,nkc->nk", diff, self.normals[idx])
-            best = dist.min(axis=1)
-            close = dist <= best[:, None] + 1e-9
-            align = np.where(close, np.abs(dot) / np.maximum(dist, 1e-300), -1.0)
-            pick = np.argmax(align, axis=1)
-            sign = np.sign(dot[np.arange(len(p)), pick])
-            sign[sign == 0] = 1.0
-            out[s : s + CHUNK] = sign * best
+            d, far = self._signed(p, self.candidates)
+            k = self.candidates
+            todo = np.flatnonzero((d < -EXACT_BELOW) & (far <= np.abs(d) + self.reach))
+            while len(todo) and k < len(self.triangles):
+                k = min(4 * k, len(self.triangles))
+                d_k, far_k = self._signed(p[todo], k)
+                d[todo] = d_k
+                todo = todo[(d_k < -EXACT_BELOW) & (far_k <= np.abs(d_k) + self.reach)]
+            out[s : s + CHUNK] = d
         return out
+
+    def _signed(
+        self, p: NDArray[np.float64], k: int
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Signed distance over ``k`` candidates and the ``k``-th centroid distance."""
+        import trimesh
+
+        far, idx = self.tree.query(p, k=k)
+        far = np.asarray(far).reshape(len(p), k)[:, -1]
+        idx = np.asarray(idx).reshape(len(p), k)
+        rep = np.repeat(p, k, axis=0)
+        q = trimesh.triangles.closest_point(self.triangles[idx.ravel()], rep)
+        diff = (rep - q).reshape(len(p), k, 3)
+        dist = np.linalg.norm(diff, axis=2)
+        dot = np.einsum("nkc,nkc->nk", diff, self.normals[idx])
+        best = dist.min(axis=1)
+        close = dist <= best[:, None] + 1e-9
+        align = np.where(close, np.abs(dot) / np.maximum(dist, 1e-300), -1.0)
+        pick = np.argmax(align, axis=1)
+        sign = np.sign(dot[np.arange(len(p)), pick])
+        sign[sign == 0] = 1.0
+        return sign * best, far
 
 
 @dataclass

@@ -1,0 +1,270 @@
+"""Deviation of a verified stock from the design, face role by face role.
+
+``verify.json`` gives one deviation summary for the whole part. Acceptance needs it
+per region: the blades (pressure and suction sides) and the hub must be left within
+allowance + scallop (+ the verification's gouge tolerance), while faces the chain does
+not machine (back face, bore, rim, the shroud-side blade tips: turned on a lathe) keep
+the blank's stock allowance, and a ball larger than the fillet radius leaves material
+in the fillets and on the strip of hub and blade next to them. So every stock surface
+sample (a dexel end, ``Stock.surface_samples``) gets the role of its closest design
+triangle (``Impeller.triangle_roles``) and the summary is reported per role, with
+blade and hub samples split into those within ``near_fillet`` of a fillet face and
+the rest.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+__all__ = ["ACCEPTANCE_ROLES", "LabelledDesign", "closest_roles", "passage_position",
+           "region_summary", "role_table"]
+
+#: Roles whose surfaces the chain machines and acceptance checks (blade sides, hub).
+ACCEPTANCE_ROLES = ("pressure", "suction", "hub")
+#: Samples per chunk of the closest-triangle query.
+CHUNK = 50_000
+
+
+def closest_roles(
+    triangles: NDArray[np.float64], roles: NDArray[np.str_], points: NDArray[np.float64],
+    candidates: int = 16,
+) -> tuple[NDArray[np.str_], NDArray[np.float64]]:
+    """Role of the closest triangle and the distance to it, for every point.
+
+    Parameters
+    ----------
+    triangles : (t, 3, 3) float64
+        Design triangles, mm (small: subdivide large ones first).
+    roles : (t,) str
+        Face role of every triangle.
+    points : (n, 3) float64
+        Query points, mm.
+    candidates : int
+        Triangles (nearest centroids) examined per point.
+
+    Returns
+    -------
+    role : (n,) str
+    distance : (n,) float64
+        Unsigned distance to the closest examined triangle, mm.
+    """
+    import trimesh
+
+    tree = cKDTree(triangles.mean(axis=1))
+    k = int(min(candidates, len(triangles)))
+    out_role = np.empty(len(points), dtype=roles.dtype)
+    out_dist = np.empty(len(points))
+    for s in range(0, len(points), CHUNK):
+        p = points[s:s + CHUNK]
+        _, idx = tree.query(p, k=k)
+        idx = np.asarray(idx).reshape(len(p), k)
+        q = trimesh.triangles.closest_point(triangles[idx.ravel()], np.repeat(p, k, axis=0))
+        dist = np.linalg.norm(np.repeat(p, k, axis=0) - q, axis=1).reshape(len(p), k)
+        best = np.argmin(dist, axis=1)
+        rows = np.arange(len(p))
+        out_role[s:s + CHUNK] = roles[idx[rows, best]]
+        out_dist[s:s + CHUNK] = dist[rows, best]
+    return out_role, out_dist
+
+
+def _polyline_fraction(zr: NDArray[np.float64], contour: NDArray[np.float64]
+                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Arc-length position (mm) of the closest point of a (z, r) polyline, and the distance.
+
+    Parameters
+    ----------
+    zr : (n, 2) float64
+        Points in the meridional plane (z, r), mm.
+    contour : (k, 2) float64
+        The polyline (z, r), mm.
+    """
+    a, b = contour[:-1], contour[1:]
+    ab = b - a
+    length = np.linalg.norm(ab, axis=1)
+    start = np.concatenate([[0.0], np.cumsum(length)])[:-1]
+    m = np.empty(len(zr))
+    d = np.empty(len(zr))
+    for s in range(0, len(zr), CHUNK):
+        p = zr[s:s + CHUNK, None, :]
+        t = np.clip(np.einsum("nkc,kc->nk", p - a[None], ab) / (length**2)[None], 0.0, 1.0)
+        dist = np.linalg.norm(p - (a[None] + t[..., None] * ab[None]), axis=2)
+        best = np.argmin(dist, axis=1)
+        rows = np.arange(len(best))
+        m[s:s + CHUNK] = start[best] + t[rows, best] * length[best]
+        d[s:s + CHUNK] = dist[rows, best]
+    return m, d
+
+
+def passage_position(points: NDArray[np.float64], hub: NDArray[np.float64],
+                     shroud: NDArray[np.float64], hub_edges: NDArray[np.float64],
+                     shroud_edges: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Meridional position of points between the blades' leading (0) and trailing (1) edge.
+
+    The point's (z, r) is projected on the hub and the shroud contours; on each the
+    position is normalised by that contour's leading- and trailing-edge points, and
+    the two are blended by the point's relative distance from hub and shroud.
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+        Points in W, mm.
+    hub, shroud : (k, 2) float64
+        Meridional contours (z, r), mm.
+    hub_edges, shroud_edges : (2, 2) float64
+        (z, r) of the leading and trailing edge on each contour.
+
+    Returns
+    -------
+    (n,) float64
+        < 0 upstream of the leading edge, > 1 downstream of the trailing edge.
+    """
+    zr = np.column_stack([points[:, 2], np.hypot(points[:, 0], points[:, 1])])
+    m_h, d_h = _polyline_fraction(zr, hub)
+    m_s, d_s = _polyline_fraction(zr, shroud)
+    e_h, _ = _polyline_fraction(hub_edges, hub)
+    e_s, _ = _polyline_fraction(shroud_edges, shroud)
+    t_h = (m_h - e_h[0]) / (e_h[1] - e_h[0])
+    t_s = (m_s - e_s[0]) / (e_s[1] - e_s[0])
+    w = d_h / np.maximum(d_h + d_s, 1e-12)
+    return np.asarray((1.0 - w) * t_h + w * t_s)
+
+
+def role_table(distance: NDArray[np.float64], limit: float, touched: NDArray[np.bool_]
+               ) -> dict[str, Any]:
+    """Summary of signed deviations (mm) of one group of samples against ``limit``."""
+    if len(distance) == 0:
+        return {"samples": 0}
+    over = distance > limit
+    return {
+        "samples": int(len(distance)),
+        "machined_share": round(float(touched.mean()), 4),
+        "max_mm": round(float(distance.max()), 4),
+        "p99_mm": round(float(np.percentile(distance, 99.0)), 4),
+        "median_mm": round(float(np.median(distance)), 4),
+        "min_mm": round(float(distance.min()), 4),
+        "over_limit": int(over.sum()),
+        "over_limit_share": round(float(over.mean()), 5),
+        "within_limit": bool(not over.any()),
+    }
+
+
+class LabelledDesign:
+    """The spec's design mesh (that of ``run_verify --design SPEC``) with face roles.
+
+    Attributes
+    ----------
+    triangles : (t, 3, 3) float64
+        Design triangles subdivided to edges <= 2 mm, mm.
+    roles : (t,) str
+        Face role of each (``Impeller.triangle_roles``).
+    distance : DesignDistance
+        Signed distance from the closed design mesh.
+    meridional : tuple
+        Hub and shroud contours (z, r) and the blades' edge points on them (z, r),
+        for ``passage_position``.
+    """
+
+    def __init__(self, spec: str | Path) -> None:
+        import trimesh
+
+        from cam.verify.deviation import DesignDistance
+        from geometry.impeller import Impeller
+
+        impeller = Impeller.from_spec(spec)
+        spec_ = impeller.spec
+        edges = [c[[0, -1]][:, [2, 0]] for c in (spec_.hub_camber, spec_.shroud_camber)]
+        self.meridional = (spec_.hub_contour, spec_.shroud_contour, edges[0], edges[1])
+        mesh = impeller.mesh()
+        labels = np.asarray(impeller.triangle_roles())
+        v, f, index = trimesh.remesh.subdivide_to_size(
+            np.asarray(mesh.vertices), np.asarray(mesh.faces), max_edge=2.0,
+            return_index=True)
+        self.triangles = np.asarray(v, np.float64)[np.asarray(f, np.int64)]
+        self.roles = labels[np.asarray(index)]
+        self.distance = DesignDistance(np.asarray(mesh.vertices, np.float64),
+                                       np.asarray(mesh.faces, np.int64))
+
+
+def region_summary(design: LabelledDesign, stock_npz: str | Path, allowance: float,
+                   tolerance: float, near_fillet: float) -> dict[str, Any]:
+    """Per-role deviation of a saved stock from the spec's design.
+
+    Parameters
+    ----------
+    design : LabelledDesign
+        The design mesh with roles.
+    stock_npz : str or Path
+        A stock state written by ``run_verify`` (``stock.npz``).
+    allowance : float
+        Material meant to remain on machined faces (allowance + scallop), mm.
+    tolerance : float
+        Verification tolerance added to ``allowance`` (the gouge tolerance), mm.
+    near_fillet : float
+        Blade and hub samples closer than this to a fillet face are reported apart
+        (``<role>_near_fillet``), mm: a ball of radius R > fillet radius cannot reach
+        there. Blade and hub samples upstream of the leading edge or downstream of the
+        trailing edge (``passage_position``; the inlet and outlet of the hub are
+        axisymmetric lathe work, outside the passages the chain mills) are reported
+        apart as ``<role>_outside_blades``.
+
+    Returns
+    -------
+    dict
+        ``limit_mm`` (allowance + tolerance), ``roles`` {role: table} (``role_table``),
+        ``acceptance`` {role: table} for blades and hub away from the fillets, and
+        ``accepted`` (all of those within the limit, none gouged).
+    """
+    from cam.verify.stock import Stock
+
+    triangles, labels = design.triangles, design.roles
+    stock = Stock.load(Path(stock_npz))
+    points, _, moves = stock.surface_samples()
+    signed = design.distance(points)
+    role, _ = closest_roles(triangles, labels, points)
+    checked = np.isin(role, ACCEPTANCE_ROLES)
+    fillet = triangles[labels == "fillet"]
+    near = np.zeros(len(points), dtype=bool)
+    if len(fillet) and checked.any():
+        _, to_fillet = closest_roles(fillet, np.full(len(fillet), "fillet"),
+                                     points[checked])
+        near[checked] = to_fillet < near_fillet
+    position = passage_position(points, *design.meridional)
+    between = (position >= 0.0) & (position <= 1.0)
+    limit = allowance + tolerance
+    touched = moves >= 0
+    roles: dict[str, Any] = {}
+    for name in sorted(set(role.tolist())):
+        sel = role == name
+        if name in ACCEPTANCE_ROLES:
+            inside = sel & between
+            roles[name] = role_table(signed[inside & ~near], limit, touched[inside & ~near])
+            roles[f"{name}_near_fillet"] = role_table(signed[inside & near], limit,
+                                                      touched[inside & near])
+            roles[f"{name}_outside_blades"] = role_table(signed[sel & ~between], limit,
+                                                         touched[sel & ~between])
+        else:
+            roles[name] = role_table(signed[sel], limit, touched[sel])
+    acceptance = {name: roles[name] for name in ACCEPTANCE_ROLES if name in roles}
+    # a gouge is material removed inside the design (as verify.json counts it); blank
+    # surfaces never machined that lie inside the design are the blank's business
+    gouge = bool(np.any(signed[touched] < -tolerance))
+    unmachined = signed[~touched]
+    return {
+        "allowance_mm": allowance,
+        "tolerance_mm": tolerance,
+        "limit_mm": limit,
+        "near_fillet_mm": near_fillet,
+        "samples": int(len(points)),
+        "gouge": bool(gouge),
+        "min_mm": round(float(signed[touched].min()), 4) if touched.any() else None,
+        "unmachined_min_mm": round(float(unmachined.min()), 4) if len(unmachined) else None,
+        "roles": roles,
+        "acceptance": acceptance,
+        "accepted": bool(acceptance and not gouge
+                         and all(t.get("within_limit", True) for t in acceptance.values())),
+    }

@@ -1,0 +1,166 @@
+"""The stages of ``impeller-cam run``: each reads earlier stages' folders, writes its own.
+
+A stage is a function ``stage(ctx) -> None`` that writes one folder under ``ctx.out``
+all or nothing (``impeller_cam.atomic.staged_directory``, or the stage function it
+wraps, which does the same). It reads only files of earlier stages, so any stage can
+be rerun alone from the outputs on disk. Layout: docs/run.md (the contract of issue 8).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from cam.run.settings import RunSettings
+from impeller_cam.atomic import staged_directory, write_text_atomic
+from impeller_cam.errors import InputError
+
+__all__ = ["STAGE_FOLDERS", "STAGE_FUNCTIONS", "Context", "read_json", "stage_outputs"]
+
+#: Finishing operations in machining order.
+FINISH_ORDER = ("junction", "blade", "hub")
+
+
+@dataclass(frozen=True)
+class Context:
+    """What every stage gets: inputs, the output folder and the settings."""
+
+    spec: Path
+    machine: Path
+    out: Path
+    settings: RunSettings
+
+
+def read_json(ctx: Context, relative: str, stage: str) -> dict[str, Any]:
+    """An earlier stage's JSON file; ``InputError`` naming the stage when it is missing."""
+    path = ctx.out / relative
+    if not path.is_file():
+        raise InputError(f"{relative} is missing: run the {stage} stage first",
+                         file=path, field="--stage", value=stage,
+                         accepted=f"an output folder where the {stage} stage is done")
+    data = json.loads(path.read_text(encoding="utf-8"))
+    assert isinstance(data, dict)
+    return data
+
+
+def geometry_stage(ctx: Context) -> None:
+    """STEP, STL, geometry.json and the render (``run_geometry``)."""
+    from geometry.command import run_geometry
+
+    run_geometry(ctx.spec, ctx.out / "geometry", tessellation=ctx.settings.tessellation_mm,
+                 render=True, fillets=True)
+
+
+def rough_stage(ctx: Context) -> None:
+    """UMR roughing (``run_rough``) with the roughing tool."""
+    from cam.roughing.command import run_rough
+
+    run_rough(ctx.spec, ctx.machine, ctx.settings.rough_tool, ctx.out / "rough",
+              progress=False, **ctx.settings.rough)
+
+
+def finish_stage(ctx: Context) -> None:
+    """Five-axis finishing (``run_finish``) with the finishing tool."""
+    from cam.finishing.command import run_finish
+
+    run_finish(ctx.spec, ctx.machine, ctx.settings.finish_tool, ctx.out / "finish",
+               progress=False, **ctx.settings.finish)
+
+
+def apt_files(ctx: Context) -> list[tuple[str, str, str]]:
+    """``(operation, apt relative path, tool name)`` of every APT file, machining order."""
+    rough = read_json(ctx, "rough/rough.json", "rough")
+    finish = read_json(ctx, "finish/finish.json", "finish")
+    out = [("rough", f"rough/{op['apt']}", rough["tool"]["name"])
+           for op in rough["operations"]]
+    ops = finish["operations"]
+    order = [op for op in FINISH_ORDER if op in ops] + sorted(set(ops) - set(FINISH_ORDER))
+    out += [("finish", f"finish/{ops[op]['apt']}", finish["tool"]["name"]) for op in order]
+    return out
+
+
+def post_stage(ctx: Context) -> None:
+    """Every APT file to one NC program (machine's dialect or the chosen one), post.json."""
+    from postproc.command import post_text
+    from postproc.machine import load_machine
+    from postproc.nc_reader import read_nc
+    from postproc.posts import get_post
+
+    machine = load_machine(ctx.machine)
+    dialect = get_post(ctx.settings.post or machine.post)
+    programs = []
+    with staged_directory(ctx.out / "nc") as stage:
+        for operation, apt, tool in apt_files(ctx):
+            text = post_text(ctx.out / apt, ctx.machine, post=dialect.name)
+            name = f"{Path(apt).stem}.{dialect.extension}"
+            write_text_atomic(stage / name, text)
+            programs.append({"operation": operation, "name": Path(apt).stem, "apt": apt,
+                             "nc": f"nc/{name}", "blocks": len(read_nc(stage / name)),
+                             "tool": tool})
+        document = {"post": dialect.name, "machine": str(ctx.machine), "programs": programs}
+        write_text_atomic(stage / "post.json", json.dumps(document, indent=2) + "\n")
+
+
+def nc_programs(ctx: Context, operation: str | None = None) -> list[dict[str, Any]]:
+    """Entries of post.json (of one operation)."""
+    programs = read_json(ctx, "nc/post.json", "post")["programs"]
+    return [p for p in programs if operation is None or p["operation"] == operation]
+
+
+def verify_stage(ctx: Context) -> None:
+    """Verification of the rough programs on the blank, then the finish programs on the
+    stock they left; both against the design (the spec), plus regions.json."""
+    from cam.run.verification import verify_chain
+
+    verify_chain(ctx)
+
+
+def motion_stage(ctx: Context) -> None:
+    """Cycle times, UMR index-move optimisation, servo prediction (motion.json, PNGs)."""
+    from cam.run.motion import motion_outputs
+
+    motion_outputs(ctx)
+
+
+def report_stage(ctx: Context) -> None:
+    """report.html from the files above (``cam.report.build_report``)."""
+    try:
+        from cam.report import build_report  # type: ignore[attr-defined, unused-ignore]
+    except ImportError as error:
+        raise RuntimeError("the report stage needs cam.report.build_report, which this "
+                           f"build does not have ({error})") from None
+    build_report(ctx.out)
+
+
+#: Stage name -> function.
+STAGE_FUNCTIONS: dict[str, Callable[[Context], None]] = {
+    "geometry": geometry_stage,
+    "rough": rough_stage,
+    "finish": finish_stage,
+    "post": post_stage,
+    "verify": verify_stage,
+    "motion": motion_stage,
+    "report": report_stage,
+}
+#: Stage name -> what it writes (relative to the output folder).
+STAGE_FOLDERS: dict[str, tuple[str, ...]] = {
+    "geometry": ("geometry",), "rough": ("rough",), "finish": ("finish",), "post": ("nc",),
+    "verify": ("verify",), "motion": ("motion",), "report": ("report.html",),
+}
+
+
+def stage_outputs(out: Path, name: str) -> list[str]:
+    """Relative paths of the files a stage wrote (sorted; hidden staging files left out)."""
+    found: list[str] = []
+    for rel in STAGE_FOLDERS[name]:
+        path = out / rel
+        if path.is_file():
+            found.append(rel)
+        elif path.is_dir():
+            found += sorted(p.relative_to(out).as_posix() for p in path.rglob("*")
+                            if p.is_file() and not any(part.startswith(".")
+                                                       for part in p.relative_to(out).parts))
+    return found

@@ -1,0 +1,115 @@
+"""The verify stage: rough programs on the blank, finish programs on what they left.
+
+Both runs check against the design (the spec), with the same dexel resolution, and
+are written together into ``verify/`` (all or nothing):
+
+* ``verify/rough``: the rough NC files with the roughing tool on the spec's blank;
+  allowance = finishing allowance + roughing scallop;
+* ``verify/finish``: the finish NC files with the finishing tool starting from
+  ``verify/rough/stock.npz``; allowance = finishing scallop;
+* ``verify/regions.json``: the deviation of the rough and the finished stock per face
+  role (``cam.run.regions``): the acceptance numbers (blades and hub within allowance
+  + scallop + gouge tolerance; fillet strips, the lathe-turned inlet and outlet and
+  the unmachined faces apart).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+from cam.run.regions import LabelledDesign, region_summary
+from cam.run.stages import Context, nc_programs
+from impeller_cam.atomic import write_text_atomic
+from impeller_cam.tolerances import DEFAULT_TOLERANCES
+
+__all__ = ["allowances", "verify_chain"]
+
+
+@contextmanager
+def _staged_folder(folder: Path) -> Iterator[Path]:
+    """Build a folder with sub-folders in a hidden sibling; swap it in on success.
+
+    ``staged_directory`` moves items one by one and cannot replace a non-empty
+    sub-folder (a rerun of the stage): here the old folder is renamed aside, the new
+    one renamed into place, then the old one removed. On failure nothing changes.
+    """
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=f".{folder.name}-staging-", dir=folder.parent))
+    try:
+        yield stage
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        raise
+    old = None
+    if folder.exists():
+        old = Path(tempfile.mkdtemp(prefix=f".{folder.name}-old-", dir=folder.parent))
+        os.replace(folder, old / folder.name)
+    os.replace(stage, folder)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def allowances(ctx: Context) -> dict[str, float]:
+    """Material meant to remain after roughing and after finishing, mm.
+
+    Rough: the spec's finishing allowance plus the roughing scallop height;
+    finish: the finishing scallop height (options as run, from rough.json/finish.json).
+    """
+    from geometry.spec import load_spec
+
+    eta = load_spec(ctx.spec).finishing_allowance
+    rough = json.loads((ctx.out / "rough" / "rough.json").read_text())["options"]
+    finish = json.loads((ctx.out / "finish" / "finish.json").read_text())["options"]
+    return {"rough": eta + float(rough["scallop_mm"]), "finish": float(finish["scallop_mm"])}
+
+
+def _relocate(folder: Path, stock: str) -> None:
+    """verify.json names its input stock; replace the staging path by the final one."""
+    from cam.verify.report import verify_json
+
+    path = folder / "verify.json"
+    data = json.loads(path.read_text())
+    data["stock"] = stock
+    write_text_atomic(path, verify_json(data))
+
+
+def verify_chain(ctx: Context) -> dict[str, Any]:
+    """Run both verifications and the region analysis; returns regions.json content."""
+    from cam.tools import resolve_tool
+    from cam.verify.command import VerifyOptions, run_verify
+
+    rough = [ctx.out / p["nc"] for p in nc_programs(ctx, "rough")]
+    finish = [ctx.out / p["nc"] for p in nc_programs(ctx, "finish")]
+    allow = allowances(ctx)
+    resolution = ctx.settings.verify_resolution_mm
+    tolerance = DEFAULT_TOLERANCES.gouge
+    finish_radius = resolve_tool(ctx.settings.finish_tool).radius
+    with _staged_folder(ctx.out / "verify") as stage:
+        run_verify(rough, ctx.machine, ctx.settings.rough_tool, str(ctx.spec), ctx.spec,
+                   resolution, stage / "rough",
+                   options=VerifyOptions(allowance=allow["rough"]), progress=False)
+        run_verify(finish, ctx.machine, ctx.settings.finish_tool,
+                   str(stage / "rough" / "stock.npz"), ctx.spec, resolution,
+                   stage / "finish", options=VerifyOptions(allowance=allow["finish"]),
+                   progress=False)
+        _relocate(stage / "finish", str(ctx.out / "verify" / "rough" / "stock.npz"))
+        design = LabelledDesign(ctx.spec)
+        regions = {
+            "format": "impeller-cam regions 1",
+            "resolution_mm": resolution,
+            "finish_ball_radius_mm": finish_radius,
+            "rough_allowance_mm": allow["rough"],
+            "rough": region_summary(design, stage / "rough" / "stock.npz", allow["rough"],
+                                    tolerance, finish_radius),
+            "finish": region_summary(design, stage / "finish" / "stock.npz",
+                                     allow["finish"], tolerance, finish_radius),
+        }
+        write_text_atomic(stage / "regions.json", json.dumps(regions, indent=2) + "\n")
+    return regions
