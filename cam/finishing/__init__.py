@@ -8,6 +8,8 @@ One module per step of the method (seeds 000, second half, and 001):
 * ``reversals``: reverse movements of the axes, shift by phi_L and least-squares
   cubic B-spline smoothing until monotone;
 * ``interference``: collision checks and the dC remedy up to Cmax;
+* ``repair``: postures the remedy cannot fix (axis near the C axis) and the
+  normal-angle / lead / tilt limits: cone search, blended into A and C monotonically;
 * ``plan``: the procedure per path and its result; ``linking``: one toolpath per
   operation; ``plots``: Figs. 12-13; ``command``: ``impeller-cam finish``.
 

@@ -59,6 +59,9 @@ class FinishOptions:
         from the hub contact normal, deg; violations are reported, never clamped.
     basis_functions : int
         Cubic B-spline basis functions of the least-squares smoothing (paper: 4).
+    smoothing_scope : str
+        ``"local"``: shift and smooth a window around each reversed range (seed 001),
+        ``"path"``: the whole path at once (cam/finishing/reversals.py).
     phi_l_deg : float
         Smallest shift phi_L of a reversed increment, deg (the shift is at least
         the reversed increment itself, so the shifted curve moves one way).
@@ -70,6 +73,20 @@ class FinishOptions:
         The same for X, Y, Z, mm.
     delta_c_deg : float
         Step dC of the interference remedy (eq. 7 procedure), deg.
+    tilt_search_deg : float
+        Largest tilt of the cone search that repairs postures the eq. 7 remedy
+        cannot (cam/finishing/repair.py), deg.
+    tilt_search_step_deg : float
+        Step of the cone angle in that search, deg.
+    tilt_directions : int
+        Tilt directions tried on each cone ring (the first: away from the wall).
+    repair_margin_mm : float
+        A repaired posture must clear the part by ``clearance_mm`` plus this, mm
+        (room for the blend towards its neighbours).
+    repair_blend_mm : float
+        Least path length over which a repair is blended into the A and C curves, mm.
+    repair_rounds : int
+        Search-and-blend rounds before the remaining postures are reported.
     cutter_allowance_mm : float
         The ball is checked shrunk by this much so that it may touch the surfaces
         it cuts (must exceed the scene tessellation error), mm.
@@ -102,11 +119,18 @@ class FinishOptions:
     max_lead_deg: float = 45.0
     max_tilt_deg: float = 80.0
     basis_functions: int = 4
+    smoothing_scope: str = "local"
     phi_l_deg: float = 0.01
     max_smoothing_iterations: int = 20
     reversal_deadband_deg: float = 1e-5
     linear_deadband_mm: float = 1e-5
     delta_c_deg: float = 1.0
+    tilt_search_deg: float = 10.0
+    tilt_search_step_deg: float = 1.0
+    tilt_directions: int = 16
+    repair_margin_mm: float = 0.05
+    repair_blend_mm: float = 5.0
+    repair_rounds: int = 6
     cutter_allowance_mm: float = 0.05
     clearance_mm: float = DEFAULT_TOLERANCES.clearance
     clearance_exact_mm: float = 3.0
@@ -122,7 +146,8 @@ class FinishOptions:
     def __post_init__(self) -> None:
         positive = ("point_spacing_mm", "scallop_mm", "min_normal_angle_deg", "max_lead_deg",
                     "max_tilt_deg", "phi_l_deg", "reversal_deadband_deg",
-                    "linear_deadband_mm", "delta_c_deg", "motion_step_mm",
+                    "linear_deadband_mm", "delta_c_deg", "tilt_search_deg",
+                    "tilt_search_step_deg", "repair_blend_mm", "motion_step_mm",
                     "motion_step_deg", "retract_clearance_mm", "link_step_deg",
                     "tessellation_mm")
         for name in positive:
@@ -130,7 +155,7 @@ class FinishOptions:
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise InputError("must be a positive number", field=name, value=value,
                                  accepted="a finite number > 0")
-        for name in ("c_tilt_deg", "cutter_allowance_mm", "clearance_mm"):
+        for name in ("c_tilt_deg", "cutter_allowance_mm", "clearance_mm", "repair_margin_mm"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
                 raise InputError("must be a number >= 0", field=name, value=value,
@@ -139,6 +164,9 @@ class FinishOptions:
             raise InputError("must be at least clearance_mm", field="clearance_exact_mm",
                              value=self.clearance_exact_mm,
                              accepted=f">= {self.clearance_mm:g} mm")
+        if self.smoothing_scope not in ("local", "path"):
+            raise InputError("unknown smoothing scope", field="smoothing_scope",
+                             value=self.smoothing_scope, accepted="local, path")
         if not isinstance(self.basis_functions, int) or self.basis_functions < 4:
             raise InputError("a cubic B-spline needs at least 4 basis functions",
                              field="basis_functions", value=self.basis_functions,
@@ -147,6 +175,11 @@ class FinishOptions:
                 self.max_smoothing_iterations < 1:
             raise InputError("must be a positive integer", field="max_smoothing_iterations",
                              value=self.max_smoothing_iterations, accepted="an integer >= 1")
+        for name, least in (("tilt_directions", 1), ("repair_rounds", 0)):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < least:
+                raise InputError("must be an integer", field=name, value=value,
+                                 accepted=f"an integer >= {least}")
         if self.passages is not None and (not isinstance(self.passages, int)
                                           or self.passages < 1):
             raise InputError("must be a positive integer", field="passages",

@@ -5,12 +5,17 @@
 junction paths of the passage (M4's interpolation, used here for finishing), with
 ``ceil(widest passage / stepover)`` steps; the axis is the two walls' rulings, turned
 to the pass's angle, interpolated with the same lambda.
+
+With a splitter, the hub passes of the inlet part (between the main blades, ahead of
+the splitter) run up to the splitter junction's start and each one ends where its
+cutter (ball, and the flutes along the pass's initial axis) would come closer than R
+(+ ``SPLITTER_MARGIN``) to the splitter (``body_distance``, leading edge included;
+the end found by bisection in the hub parameter s).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -18,18 +23,27 @@ from numpy.typing import NDArray
 from cam.finishing.paths import (
     CutterPath,
     blade_passes,
+    body_distance,
     hub_foot,
     junction_path,
     passage_walls,
+    subset_path,
 )
 from cam.finishing.posture import rotate_about_z
 from geometry.revolved import RevolvedSurface
-from geometry.surfaces import ImpellerSurfaces
+from geometry.surfaces import BladeSurface, ImpellerSurfaces
 from impeller_cam.errors import InputError
 
 __all__ = ["hub_passes", "passage_paths"]
 
 Array = NDArray[np.float64]
+#: Samples along the flutes for the clearance of a hub pass ahead of a splitter.
+_REACH_SAMPLES = 9
+#: Bisection steps of a hub pass's end in front of a splitter.
+_END_STEPS = 30
+#: A pass ahead of a splitter keeps the ball this much beyond R from it, mm (the
+#: model of the splitter's round leading edge follows the solid to about 0.011 mm).
+SPLITTER_MARGIN = 0.02
 
 
 def _unit(a: Array) -> Array:
@@ -38,7 +52,9 @@ def _unit(a: Array) -> Array:
 
 def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radius: float,
                stepover: float, passage: int = 0, label: str = "",
-               s_limits: tuple[float, float] | None = None) -> list[CutterPath]:
+               s_limits: tuple[float, float] | None = None,
+               keep_clear: BladeSurface | None = None, reach: float = 0.0
+               ) -> list[CutterPath]:
     """Hub passes between two junction paths of a passage, leading to trailing edge.
 
     Parameters
@@ -47,6 +63,12 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
         Junction paths of the -theta wall (its pressure side) and the +theta wall.
     s_limits : (float, float), optional
         Restrict the hub meridional parameter range (splitter inlet region).
+    keep_clear : BladeSurface, optional
+        A blade ahead of the passes (the splitter): each pass ends where its cutter
+        (the ball and, along the pass's initial axis, the flutes up to ``reach`` above
+        the ball centre) would come closer than ``radius + SPLITTER_MARGIN`` to it.
+    reach : float
+        Flute length above the ball centre, mm.
     """
     sa, pa = hub_foot(hub, first.centre)
     sb, pb = hub_foot(hub, second.centre)
@@ -60,7 +82,7 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
     ib = np.flatnonzero((sb > 0.0) & (sb < 1.0))
     if len(ia) < 2 or len(ib) < 2:
         return []
-    first, second = _subset(first, ia), _subset(second, ib)
+    first, second = subset_path(first, ia), subset_path(second, ib)
     sa, pa, sb, pb = sa[ia], pa[ia], sb[ib], pb[ib]
     pa, pb = np.unwrap(pa), np.unwrap(pb)
     lo, hi = max(sa[0], sb[0]), min(sa[-1], sb[-1])
@@ -88,33 +110,49 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
     out = []
     for k in range(1, passes):
         lam = k / passes
-        phi = (1.0 - lam) * phi_a + lam * phi_b
-        centre = hub.offset(s, phi, radius)
-        axis = _unit(rotate_about_z((1.0 - lam) * axis_a + lam * axis_b, phi))
+
+        def clearance(s_at: Array, lam: float = lam) -> Array:
+            """Distance of the cutter's axis segment from ``keep_clear`` minus R, mm."""
+            assert keep_clear is not None
+            phi_at = (1.0 - lam) * np.interp(s_at, s, phi_a) + lam * np.interp(s_at, s, phi_b)
+            centre = hub.offset(s_at, phi_at, radius)
+            up = _unit(rotate_about_z((1.0 - lam) * _interp_rows(s_at, s, axis_a)
+                                      + lam * _interp_rows(s_at, s, axis_b), phi_at))
+            heights = np.linspace(0.0, reach, _REACH_SAMPLES if reach > 0 else 1)
+            points = centre[:, None, :] + heights[None, :, None] * up[:, None, :]
+            distance = body_distance(keep_clear, points.reshape(-1, 3))
+            return np.asarray(distance.reshape(len(s_at), -1).min(axis=1) - radius)
+
+        s_pass = s
+        if keep_clear is not None:
+            near = np.flatnonzero(clearance(s) < SPLITTER_MARGIN)
+            if near.size:
+                stop = int(near[0])
+                if stop == 0:
+                    continue
+                lo_s, hi_s = np.array([s[stop - 1]]), np.array([s[stop]])
+                for _ in range(_END_STEPS):
+                    mid = 0.5 * (lo_s + hi_s)
+                    ok = clearance(mid) >= SPLITTER_MARGIN
+                    lo_s, hi_s = np.where(ok, mid, lo_s), np.where(ok, hi_s, mid)
+                s_pass = np.concatenate([s[:stop], lo_s])
+                if len(s_pass) < 2:
+                    continue
+        phi = (1.0 - lam) * np.interp(s_pass, s, phi_a) + lam * np.interp(s_pass, s, phi_b)
+        centre = hub.offset(s_pass, phi, radius)
+        axis = _unit(rotate_about_z((1.0 - lam) * _interp_rows(s_pass, s, axis_a)
+                                    + lam * _interp_rows(s_pass, s, axis_b), phi))
         near_first = lam < 0.5
-        away = rotate_about_z(away_a if near_first else away_b, phi)
+        away_rows = _interp_rows(s_pass, s, away_a if near_first else away_b)
         out.append(CutterPath(
             name=f"p{passage}.hub{label}.{k:02d}", operation="hub", passage=passage,
-            centre=centre, normal=hub.normal(s, phi), reference_axis=axis, away=_unit(away),
-            opposite_tip=tip_a if near_first else tip_b, curve_u=curve_u,
-            hub_contact=hub.point(s, phi),
+            centre=centre, normal=hub.normal(s_pass, phi), reference_axis=axis,
+            away=_unit(rotate_about_z(away_rows, phi)),
+            opposite_tip=_interp_rows(s_pass, s, tip_a if near_first else tip_b),
+            curve_u=np.interp(s_pass, s, curve_u), hub_contact=hub.point(s_pass, phi),
+            open_end=keep_clear is not None,
         ))
     return out
-
-
-def _subset(path: CutterPath, index: NDArray[np.intp]) -> CutterPath:
-    def take(a: Array) -> Array:
-        return np.asarray(a[index])
-
-    def take_optional(a: Array | None) -> Array | None:
-        return None if a is None else take(a)
-
-    return replace(path, centre=take(path.centre), normal=take(path.normal),
-                   reference_axis=take(path.reference_axis), away=take(path.away),
-                   opposite_tip=take(path.opposite_tip), curve_u=take(path.curve_u),
-                   blade_contact=take_optional(path.blade_contact),
-                   hub_contact=take_optional(path.hub_contact),
-                   blade_v=take_optional(path.blade_v))
 
 
 def _interp_rows(x: Array, xp: Array, rows: Array) -> Array:
@@ -122,9 +160,12 @@ def _interp_rows(x: Array, xp: Array, rows: Array) -> Array:
 
 
 def passage_paths(surfaces: ImpellerSurfaces, radius: float, spacing: float,
-                  stepover: float, *, blade: bool = True, hub: bool = True
-                  ) -> list[CutterPath]:
+                  stepover: float, *, blade: bool = True, hub: bool = True,
+                  reach: float = 0.0) -> list[CutterPath]:
     """All finishing paths of passage 0: junctions, then blade passes, then hub passes.
+
+    ``reach`` (mm) is the flute length above the ball centre: the inlet hub passes
+    ahead of a splitter keep ball and flutes clear of it (``hub_passes``).
 
     Raises
     ------
@@ -156,10 +197,11 @@ def passage_paths(surfaces: ImpellerSurfaces, radius: float, spacing: float,
             (ja, js), (jp, jb) = junctions
             out += hub_passes(ja, js, surfaces.hub, radius, stepover, label="a")
             out += hub_passes(jp, jb, surfaces.hub, radius, stepover, label="b")
-            # inlet region ahead of the splitter: between the main blades
-            s_split = min(hub_foot(surfaces.hub, js.centre)[0][0],
+            # inlet region ahead of the splitter: between the main blades, each pass
+            # ending where its ball would come within R of the splitter
+            s_split = max(hub_foot(surfaces.hub, js.centre)[0][0],
                           hub_foot(surfaces.hub, jp.centre)[0][0])
-            margin = 2.0 * radius / surfaces.hub.length
             out += hub_passes(ja, jb, surfaces.hub, radius, stepover, label="i",
-                              s_limits=(0.0, s_split - margin))
+                              s_limits=(0.0, s_split), keep_clear=surfaces.splitters[0],
+                              reach=reach)
     return out

@@ -33,12 +33,14 @@ from impeller_cam.errors import InputError
 __all__ = [
     "CutterPath",
     "blade_distance",
+    "body_distance",
     "Wall",
     "blade_passes",
     "hub_foot",
     "junction_path",
     "passage_walls",
     "rotate_path",
+    "subset_path",
 ]
 
 Array = NDArray[np.float64]
@@ -115,6 +117,10 @@ class CutterPath:
         Camber-curve parameter of each point.
     blade_contact, hub_contact : (n, 3) float64 or None
         Contact points of the ball (junction paths; hub passes: hub only).
+    open_end : bool
+        The pass ends where the tool meets an obstacle (hub passes ahead of a
+        splitter): if its last postures cannot be made to meet every rule, the pass
+        may be shortened there (``plan.finish_path``, reported).
     """
 
     name: str
@@ -130,6 +136,7 @@ class CutterPath:
     hub_contact: Array | None = None
     blade_v: Array | None = None
     wall: Wall | None = None
+    open_end: bool = False
 
     def __len__(self) -> int:
         return len(self.centre)
@@ -164,6 +171,55 @@ def blade_distance(wall: Wall, points: Array, u0: Array, v0: Array,
         u = np.clip(u + (a22 * b1 - a12 * b2) / det, 0.0, 1.0)  # the surface ends at the edges
         v = v + (a11 * b2 - a12 * b1) / det
     return np.asarray(np.linalg.norm(points - wall.blade.side(u, v, wall.side), axis=1))
+
+
+def body_distance(blade: BladeSurface, points: Array, iterations: int = 10) -> Array:
+    """Distance of points from a blade's material (leading edge included), mm, ``(n,)``.
+
+    The blade (round edges) is the set of points within ``d(u) / 2`` of its camber
+    surface, u in [0, 1]: distance = ``|p - R(u*, v*)| - d(u*) / 2`` at the foot point
+    on the camber surface (coarse grid, then Gauss-Newton with u kept in [0, 1], v
+    free: the rulings extend below the hub). Near a side this is the side distance
+    (to the thickness variation); ahead of a round leading edge it is the distance
+    to its half-circle cap (which the solid follows to about 0.011 mm); a cut edge
+    lies inside this model, so the distance is then an underestimate (safe for
+    trimming passes that must keep clear of the blade).
+    """
+    points = np.asarray(points, dtype=np.float64)
+    ug, vg = np.meshgrid(np.linspace(0.0, 1.0, 41), np.linspace(-0.1, 1.3, 15), indexing="ij")
+    grid = blade.camber(ug.ravel(), vg.ravel())
+    nearest = np.argmin(np.linalg.norm(points[:, None, :] - grid[None, :, :], axis=2), axis=1)
+    u, v = ug.ravel()[nearest], vg.ravel()[nearest]
+    for _ in range(iterations):
+        foot = blade.camber(u, v)
+        du, dv = blade.camber_derivatives(u, v)
+        r = points - foot
+        a11 = np.einsum("ij,ij->i", du, du)
+        a12 = np.einsum("ij,ij->i", du, dv)
+        a22 = np.einsum("ij,ij->i", dv, dv)
+        b1 = np.einsum("ij,ij->i", du, r)
+        b2 = np.einsum("ij,ij->i", dv, r)
+        det = a11 * a22 - a12 * a12
+        u = np.clip(u + (a22 * b1 - a12 * b2) / det, 0.0, 1.0)
+        v = v + (a11 * b2 - a12 * b1) / det
+    return np.asarray(np.linalg.norm(points - blade.camber(u, v), axis=1)
+                      - 0.5 * blade.thickness(u))
+
+
+def subset_path(path: CutterPath, index: NDArray[np.intp]) -> CutterPath:
+    """The path restricted to the points ``index`` (every per-point array)."""
+    def take(a: Array) -> Array:
+        return np.asarray(a[index])
+
+    def take_optional(a: Array | None) -> Array | None:
+        return None if a is None else take(a)
+
+    return replace(path, centre=take(path.centre), normal=take(path.normal),
+                   reference_axis=take(path.reference_axis), away=take(path.away),
+                   opposite_tip=take(path.opposite_tip), curve_u=take(path.curve_u),
+                   blade_contact=take_optional(path.blade_contact),
+                   hub_contact=take_optional(path.hub_contact),
+                   blade_v=take_optional(path.blade_v))
 
 
 def rotate_path(path: CutterPath, passage: int, pitch: float) -> CutterPath:

@@ -3,7 +3,8 @@
 Per cutter-centre path (``paths``): initial postures (``posture``), machine joints
 from the machine's inverse kinematics, reverse movements of A and C removed
 (``reversals``; X, Y, Z reversals reported), tool tips recomputed from the
-unchanged ball centres, interference checked and remedied (``interference``).
+unchanged ball centres, interference checked and remedied (``interference``), then
+postures still breaking a rule repaired (``repair``).
 ``plan_finishing`` returns a ``FinishResult``; ``summary`` is what finish.json holds
 (docs/formats.md).
 """
@@ -21,7 +22,7 @@ from numpy.typing import NDArray
 from cam.finishing.interference import InterferenceResult, resolve_interference
 from cam.finishing.options import FinishOptions, scallop_stepover
 from cam.finishing.passes import passage_paths
-from cam.finishing.paths import CutterPath, blade_distance, rotate_path
+from cam.finishing.paths import CutterPath, blade_distance, rotate_path, subset_path
 from cam.finishing.posture import (
     angle_between,
     c_max,
@@ -30,6 +31,7 @@ from cam.finishing.posture import (
     lead_tilt,
     rotate_about_z,
 )
+from cam.finishing.repair import PostureRules, RepairResult, repair_postures, rule_violations
 from cam.finishing.reversals import (
     SmoothingResult,
     count_reversals,
@@ -98,6 +100,12 @@ class PathResult:
         Lead and tilt from the contact normal, rad (hub-contact paths; NaN otherwise).
     normal_angle : (n,) float64
         Angle between axis and contact normal, rad.
+    repair : RepairResult or None
+        The cone-search repair after the eq. 7 remedy (None: nothing broke a rule).
+    rule_points : (k,) intp
+        Postures still breaking the normal-angle or lead/tilt rule.
+    trimmed : int
+        Points cut from the end of an open-ended pass (``CutterPath.open_end``).
     """
 
     path: CutterPath
@@ -115,6 +123,9 @@ class PathResult:
     lead: Array
     tilt: Array
     normal_angle: Array
+    repair: RepairResult | None = None
+    rule_points: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+    trimmed: int = 0
 
     def summary(self, options: FinishOptions) -> dict[str, Any]:
         """This path's entry of finish.json (mm, deg)."""
@@ -160,6 +171,14 @@ class PathResult:
             "lead_tilt_violations": int((limits_lead | limits_tilt).sum()) if hub_contact else 0,
             "normal_angle_violations": int((self.normal_angle < math.radians(
                 options.min_normal_angle_deg) - 1e-9).sum()),
+            "rule_violation_points": self.rule_points.tolist(),
+            "trimmed_points": self.trimmed,
+            "posture_repair": None if self.repair is None else {
+                "rounds": self.repair.rounds,
+                "tilted_points": self.repair.tilted.tolist(),
+                "max_tilt_deg": round(math.degrees(self.repair.max_tilt), 4),
+                "unresolved_points": self.repair.unresolved.tolist(),
+            },
         }
 
 
@@ -210,7 +229,8 @@ def remove_reversals(centre: Array, axis: Array, joints: Array, kins: Kinematics
                 result = smooth_monotone(
                     t, joints[:, 3 + i], basis_functions=options.basis_functions,
                     min_shift=math.radians(options.phi_l_deg), deadband=deadband,
-                    max_rounds=options.max_smoothing_iterations)
+                    max_rounds=options.max_smoothing_iterations,
+                    scope=options.smoothing_scope)
                 smoothed[:, 3 + i] = result.values
                 done[key] = result
         _, axis = kins.forward(smoothed)
@@ -233,10 +253,36 @@ def junction_errors(path: CutterPath, centres: Array, hub: RevolvedSurface, radi
     return {"hub": float(hub_error.max()), "blade": float(np.abs(blade - radius).max())}
 
 
+#: Open-ended passes are shortened at most this many times, and never below half.
+_TRIM_ROUNDS = 3
+
+
 def finish_path(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionScene,
                 options: FinishOptions, surfaces: ImpellerSurfaces | None = None
                 ) -> PathResult:
-    """Run M3 on one cutter-centre path (see the module docstring)."""
+    """Run M3 on one cutter-centre path (see the module docstring).
+
+    An open-ended pass (``path.open_end``: hub passes ahead of a splitter) whose
+    postures from some point on cannot be made to meet every rule is shortened to end
+    before that point (if that keeps at least half of it) and finished again; the
+    number of points cut is ``PathResult.trimmed``.
+    """
+    result = _finish_once(path, tool, kins, scene, options, surfaces)
+    length = len(path)
+    for _ in range(_TRIM_ROUNDS if path.open_end else 0):
+        bad = np.union1d(result.interference.interfering_points, result.rule_points)
+        if not bad.size or bad[0] < max(2, (length + 1) // 2):
+            break
+        keep = np.arange(int(bad[0]), dtype=np.intp)
+        result = _finish_once(subset_path(result.path, keep), tool, kins, scene, options,
+                              surfaces)
+    result.trimmed = length - len(result.path)
+    return result
+
+
+def _finish_once(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionScene,
+                 options: FinishOptions, surfaces: ImpellerSurfaces | None = None
+                 ) -> PathResult:
     radius = tool.radius
     tangent = path.tangent
     axis0, sign = initial_axes(path.reference_axis, path.away, math.radians(options.c_tilt_deg))
@@ -253,6 +299,13 @@ def finish_path(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collision
     inter = resolve_interference(scene, tool, path.centre, axis, sign, limits, options)
     if inter.delta_c:
         joints = _inverse(kins, inter.tip, inter.axis, path.name)
+    rules = PostureRules(path.centre, path.normal, tangent, path.away,
+                         path.operation in ("junction", "hub"))
+    repair = None
+    if inter.smaller_tool_needed or rule_violations(inter.axis, rules, options).any():
+        repair = repair_postures(scene, tool, kins, rules, inter, joints, options)
+        inter, joints = repair.interference, repair.joints
+    rule_points = np.flatnonzero(rule_violations(inter.axis, rules, options))
     after = reversal_counts(joints, options)
     centre_now = inter.tip + radius * inter.axis
     deviation = float(np.linalg.norm(centre_now - path.centre, axis=1).max())
@@ -266,7 +319,7 @@ def finish_path(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collision
                                    surfaces.spec.pitch)
     return PathResult(path, inter.tip, inter.axis, joints0, joints, before, after,
                       points_before, smoothing, inter, deviation, junction, lead, tilt,
-                      angle_between(inter.axis, path.normal))
+                      angle_between(inter.axis, path.normal), repair, rule_points)
 
 
 @dataclass
@@ -312,6 +365,18 @@ class FinishResult:
             "smaller_tool_needed": [e["name"] for e in entries if e["smaller_tool_needed"]],
             "lead_tilt_violations": int(sum(e["lead_tilt_violations"] for e in entries)),
             "normal_angle_violations": int(sum(e["normal_angle_violations"] for e in entries)),
+            "rule_violation_paths": [e["name"] for e in entries if e["rule_violation_points"]],
+            "posture_repairs": {
+                "paths": sum(1 for e in entries if e["posture_repair"]),
+                "tilted_points": int(sum(len(e["posture_repair"]["tilted_points"])
+                                         for e in entries if e["posture_repair"])),
+                "max_tilt_deg": max((e["posture_repair"]["max_tilt_deg"] for e in entries
+                                     if e["posture_repair"]), default=0.0),
+            },
+            "smoothing_methods": {
+                k: {m: sum(1 for e in entries if e["smoothing"][k]["method"] == m)
+                    for m in sorted({e["smoothing"][k]["method"] for e in entries})}
+                for k in ROTARY},
             "max_junction_distance_error_mm": max(
                 (max(e["junction_distance_error_mm"].values()) for e in entries
                  if e["junction_distance_error_mm"] is not None), default=None),
@@ -344,7 +409,8 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                          value=tool.name, accepted="a tool of type 'ball'")
     stepover = scallop_stepover(tool.radius, options.scallop_mm)
     base = passage_paths(surfaces, tool.radius, options.point_spacing_mm, stepover,
-                         blade=options.blade_passes, hub=options.hub_passes)
+                         blade=options.blade_passes, hub=options.hub_passes,
+                         reach=max(tool.flute_length - tool.radius, 0.0))
     blades = surfaces.spec.blades
     count = blades if options.passages is None else min(options.passages, blades)
     ordered: list[CutterPath] = []

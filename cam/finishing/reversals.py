@@ -8,11 +8,14 @@ neither start nor end a run.
 Removal (the paper's section 4.2, Fig. 9): with ``dir`` the overall direction of the
 axis along the path, every increment that goes the other way is shifted by
 ``dir * phi_L``, ``phi_L`` = the largest reversed increment plus a small minimum shift,
-so the whole displacement curve moves one way; the positions rebuilt from the
-shifted increments are smoothed by least squares with cubic B-splines (four basis
-functions by default, i.e. no interior knot; ``scipy.interpolate.make_lsq_spline``
-on the normalised arc length of the ball-centre path); the smoothed curve is checked
-again and the shift-and-smooth repeated until it is monotone.
+so the displacement curve moves one way; the positions rebuilt from the shifted
+increments are smoothed by least squares with cubic B-splines (four basis functions
+by default, on the normalised arc length of the ball-centre path); the smoothed
+curve is checked again and the shift-and-smooth repeated until it is monotone.
+By default (``scope="local"``) this is done on a window around each reversed range,
+keeping the window's ends (seed 001 adjusts "the angular positions corresponding to
+the regions where reverse movements presented"); ``scope="path"`` fits one cubic
+over the whole path.
 
 If it is still not monotone after the allowed rounds, the least-squares fit of the
 original positions is done with the B-spline coefficients constrained to be monotone (non-negative
@@ -33,10 +36,13 @@ __all__ = [
     "SmoothingResult",
     "count_reversals",
     "direction",
+    "end_fixed_lsq_cubic",
     "lsq_cubic",
     "monotone_lsq_cubic",
     "reversal_points",
+    "reversed_windows",
     "shift_reversed",
+    "shift_reversed_keep_ends",
     "smooth_monotone",
     "uniform_knots",
 ]
@@ -123,6 +129,33 @@ def shift_reversed(values: Array, sense: float, min_shift: float,
     return rebuilt + float(np.mean(values - rebuilt)), phi_l
 
 
+def shift_reversed_keep_ends(values: Array, sense: float, min_shift: float,
+                             deadband: float = 0.0) -> tuple[Array, float] | None:
+    """``shift_reversed`` for a window that must join the untouched curve at both ends.
+
+    The reversed increments are shifted by ``sense * phi_L`` as in Fig. 9; the
+    increments that already go the right way are then scaled by one factor so that
+    the window's net travel, hence both end positions, is kept. Returns None when
+    the window's net travel is too small to absorb the shifted increments (a wider
+    window is needed).
+    """
+    values = np.asarray(values, dtype=np.float64)
+    d = np.diff(values)
+    wrong = d * sense < -deadband
+    if not wrong.any():
+        return values.copy(), 0.0
+    phi_l = float(np.max(np.abs(d[wrong]))) + min_shift
+    shifted = d.copy()
+    shifted[wrong] += sense * phi_l
+    right = ~wrong
+    room = sense * (float(np.sum(d)) - float(np.sum(shifted[wrong])))
+    have = sense * float(np.sum(d[right]))
+    if room <= 0.0 or have <= 0.0:
+        return None
+    shifted[right] *= room / have
+    return np.concatenate([[values[0]], values[0] + np.cumsum(shifted)]), phi_l
+
+
 def uniform_knots(basis_functions: int, degree: int = 3) -> Array:
     """Clamped knot vector on [0, 1] with ``basis_functions`` cubic B-splines."""
     interior = np.linspace(0.0, 1.0, basis_functions - degree + 1)[1:-1]
@@ -172,7 +205,8 @@ class SmoothingResult:
     phi_l : list of float
         The shift phi_L of each round.
     method : str
-        ``"none"``, ``"shift+lsq"`` or ``"monotone-lsq"`` (the fallback).
+        ``"none"``, ``"shift+lsq-local"`` (windows around the reversed ranges),
+        ``"shift+lsq"`` (whole path) or ``"monotone-lsq"`` (the fallback).
     """
 
     values: Array
@@ -181,10 +215,80 @@ class SmoothingResult:
     method: str
 
 
+def end_fixed_lsq_cubic(t: Array, values: Array, targets: Array,
+                        basis_functions: int = 4) -> Array:
+    """Least-squares cubic B-spline through the end points of ``values``, at ``t``.
+
+    Clamped uniform knots on ``[t[0], t[-1]]``: the first and last coefficients are
+    the end values of ``values`` (a clamped B-spline interpolates them), the others
+    fit ``targets`` (the shifted positions) in least squares. The smoothed stretch
+    therefore joins the untouched curve on both sides.
+
+    Parameters
+    ----------
+    t : (n,) float64
+        Strictly increasing, n >= 2.
+    values : (n,) float64
+        Positions before the shift (their ends are kept).
+    targets : (n,) float64
+        Positions to fit.
+
+    Returns
+    -------
+    (n,) float64
+        The spline at ``t``.
+    """
+    u = (t - t[0]) / (t[-1] - t[0])
+    design = BSpline.design_matrix(np.clip(u, 0.0, 1.0), uniform_knots(basis_functions),
+                                   3).toarray()
+    ends = values[0] * design[:, 0] + values[-1] * design[:, -1]
+    inner = design[:, 1:-1]
+    coeffs, *_ = np.linalg.lstsq(inner, targets - ends, rcond=None)
+    return np.asarray(ends + inner @ coeffs)
+
+
+def reversed_windows(values: Array, sense: float, deadband: float, grow: int
+                     ) -> list[tuple[int, int]]:
+    """Stretches of points to smooth around the reverse movements, ``[(a, b), ...]``.
+
+    A *reversed range* is a run of increments against ``sense`` (beyond the dead
+    band), points ``i0 .. i1``; its window adds ``grow * max(i1 - i0, 4)`` points on
+    each side (clipped to the path); overlapping windows are merged.
+    """
+    d = np.diff(values)
+    wrong = np.flatnonzero(d * sense < -deadband)
+    if not wrong.size:
+        return []
+    runs = np.split(wrong, np.flatnonzero(np.diff(wrong) > 1) + 1)
+    n = len(values)
+    windows: list[tuple[int, int]] = []
+    for run in runs:
+        i0, i1 = int(run[0]), int(run[-1]) + 1
+        pad = grow * max(i1 - i0, 4)
+        a, b = max(i0 - pad, 0), min(i1 + pad, n - 1)
+        if windows and a <= windows[-1][1]:
+            windows[-1] = (windows[-1][0], max(b, windows[-1][1]))
+        else:
+            windows.append((a, b))
+    return windows
+
+
 def smooth_monotone(t: Array, values: Array, *, basis_functions: int = 4,
                     min_shift: float = 1e-4, deadband: float = 0.0,
-                    max_rounds: int = 20) -> SmoothingResult:
+                    max_rounds: int = 20, scope: str = "local") -> SmoothingResult:
     """Remove the reverse movements of one axis (shift, least-squares, repeat).
+
+    ``scope="local"`` (default; seed 001: "the angular positions corresponding to the
+    regions where reverse movements presented ... are adjusted and approximated by
+    least squares cubic B-splines"): in round k, every reversed range with a window of
+    k times its length on each side (``reversed_windows``) is shifted by phi_L
+    keeping the window's end positions (``shift_reversed_keep_ends``) and replaced by
+    the least-squares cubic B-spline with ``basis_functions`` basis functions through
+    the window's end points (``end_fixed_lsq_cubic``); the rest of the curve is
+    untouched. ``scope="path"``: the shift and the fit cover the whole path (one cubic
+    over the path with four basis functions). Either way, if the curve is still not
+    monotone after ``max_rounds``, the monotone least-squares fit of the whole path
+    ends it.
 
     Parameters
     ----------
@@ -200,6 +304,8 @@ def smooth_monotone(t: Array, values: Array, *, basis_functions: int = 4,
         Increments within it are no movement.
     max_rounds : int
         Rounds before the monotone-coefficient fallback.
+    scope : str
+        ``"local"`` or ``"path"``.
 
     Returns
     -------
@@ -213,11 +319,29 @@ def smooth_monotone(t: Array, values: Array, *, basis_functions: int = 4,
     current = values
     shifts: list[float] = []
     for round_ in range(1, max_rounds + 1):
-        shifted, phi_l = shift_reversed(current, sense, min_shift, deadband)
+        if scope == "path":
+            shifted, phi_l = shift_reversed(current, sense, min_shift, deadband)
+            current = np.asarray(lsq_cubic(t, shifted, basis_functions)(t))
+        else:
+            current = current.copy()
+            phi_l = 0.0
+            for a, b in reversed_windows(current, sense, deadband, round_):
+                if b - a < basis_functions:  # too short for the fit: a straight ramp
+                    current[a:b + 1] = np.interp(t[a:b + 1], [t[a], t[b]],
+                                                 [current[a], current[b]])
+                    continue
+                window = current[a:b + 1]
+                kept = shift_reversed_keep_ends(window, sense, min_shift, deadband)
+                if kept is None:  # not enough travel in the window yet: wider next round
+                    continue
+                shifted, phi = kept
+                phi_l = max(phi_l, phi)
+                current[a:b + 1] = end_fixed_lsq_cubic(t[a:b + 1], window, shifted,
+                                                       basis_functions)
         shifts.append(phi_l)
-        current = np.asarray(lsq_cubic(t, shifted, basis_functions)(t))
         if count_reversals(current, deadband) == 0:
-            return SmoothingResult(current, round_, shifts, "shift+lsq")
+            method = "shift+lsq" if scope == "path" else "shift+lsq-local"
+            return SmoothingResult(current, round_, shifts, method)
     fitted = np.asarray(monotone_lsq_cubic(t, values, sense, basis_functions)(t))
     if count_reversals(fitted, deadband) != 0:  # rounding of a flat stretch: make it exact
         fitted = sense * np.maximum.accumulate(sense * fitted)

@@ -15,10 +15,12 @@ import pytest
 from scipy.optimize import least_squares
 
 from cam.finishing.options import scallop_stepover
-from cam.finishing.passes import passage_paths
+from cam.finishing.passes import SPLITTER_MARGIN, hub_passes, passage_paths
 from cam.finishing.paths import (
     CutterPath,
     blade_distance,
+    body_distance,
+    hub_foot,
     junction_path,
     passage_walls,
     rotate_path,
@@ -151,3 +153,41 @@ def test_ball_smaller_than_the_fillet_is_refused() -> None:
     surfaces = surfaces_of("nine_blade")  # fillet 2.5 mm
     with pytest.raises(InputError, match="smaller than the fillet radius"):
         passage_paths(surfaces, 2.0, 1.0, 1.0)
+
+
+def test_inlet_hub_passes_end_where_the_cutter_meets_the_splitter() -> None:
+    """Hub passes ahead of the splitter end at the real distance (defect: fixed 2R).
+
+    Ball (R = 2) and flutes (8 mm above the ball centre, along the pass's initial
+    axis) keep R + SPLITTER_MARGIN from the splitter, leading edge included; passes
+    that run into the splitter end exactly there (bisection), the others run on to
+    the splitter junction's start.
+    """
+    surfaces = surfaces_of("splitter")
+    radius, reach = 2.0, 8.0
+    (main0, split_suction), (split_pressure, main1) = passage_walls(surfaces)
+    splitter = surfaces.splitters[0]
+    ja = junction_path(main0, split_suction, surfaces.hub, radius, 2.0)
+    jb = junction_path(main1, split_pressure, surfaces.hub, radius, 2.0)
+    js = junction_path(split_suction, main0, surfaces.hub, radius, 2.0)
+    # body_distance: the splitter junction balls touch the splitter side at R
+    assert np.abs(body_distance(splitter, js.centre) - radius).max() < 0.005
+    s_split = hub_foot(surfaces.hub, js.centre)[0][0]
+    passes = hub_passes(ja, jb, surfaces.hub, radius, 1.0, label="i",
+                        s_limits=(0.0, s_split), keep_clear=splitter, reach=reach)
+    assert len(passes) > 10 and all(p.open_end for p in passes)
+    ends = []
+    for p in passes:
+        up = p.reference_axis
+        heights = np.linspace(0.0, reach, 33)
+        points = p.centre[:, None, :] + heights[None, :, None] * up[:, None, :]
+        clear = body_distance(splitter, points.reshape(-1, 3)).reshape(len(p), -1).min(axis=1)
+        assert clear.min() >= radius + SPLITTER_MARGIN - 0.01  # 33 samples vs 9 in the trim
+        s_end = hub_foot(surfaces.hub, p.centre[-1:])[0][0]
+        ends.append((clear[-1] - radius, s_end))
+    trimmed = [gap for gap, s_end in ends if s_end < s_split - 1e-6]
+    assert trimmed, "the middle passes must be stopped by the splitter"
+    assert np.max(np.abs(np.array(trimmed) - SPLITTER_MARGIN)) < 0.02
+    # the passes next to the main blades run up to the splitter junction's start
+    assert ends[0][1] == pytest.approx(s_split, abs=1e-9)
+    assert ends[-1][1] == pytest.approx(s_split, abs=1e-9)

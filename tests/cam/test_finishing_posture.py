@@ -37,6 +37,14 @@ def test_options_validate_and_name_the_field() -> None:
         FinishOptions(scallop_mm=-1.0)
     with pytest.raises(InputError, match="'colour': unknown finishing option"):
         FinishOptions.from_mapping({"colour": 1})
+    with pytest.raises(InputError, match="smoothing_scope"):
+        FinishOptions(smoothing_scope="global")
+    with pytest.raises(InputError, match="tilt_directions"):
+        FinishOptions(tilt_directions=0)
+    with pytest.raises(InputError, match="tilt_search_deg"):
+        FinishOptions(tilt_search_deg=-1.0)
+    with pytest.raises(InputError, match="repair_rounds"):
+        FinishOptions(repair_rounds=1.5)  # type: ignore[arg-type]
 
 
 def test_initial_axis_turns_about_c_away_from_the_wall() -> None:

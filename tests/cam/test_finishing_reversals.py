@@ -16,10 +16,13 @@ from cam.finishing.plan import remove_reversals, reversal_counts
 from cam.finishing.reversals import (
     count_reversals,
     direction,
+    end_fixed_lsq_cubic,
     lsq_cubic,
     monotone_lsq_cubic,
     reversal_points,
+    reversed_windows,
     shift_reversed,
+    shift_reversed_keep_ends,
     smooth_monotone,
     uniform_knots,
 )
@@ -54,6 +57,62 @@ def test_shift_reversed_makes_every_increment_move_one_way() -> None:
     assert shifted.mean() == pytest.approx(values.mean())
 
 
+def test_shift_keeping_the_window_ends_hand_case() -> None:
+    # increments +1, -0.5, +1, -0.2; phi_L = 0.6: reversed -> +0.1, +0.4 (sum 0.5); the
+    # net travel 1.3 leaves 0.8 for the two forward increments (2.0): scaled by 0.4
+    values = np.array([0.0, 1.0, 0.5, 1.5, 1.3])
+    kept = shift_reversed_keep_ends(values, +1.0, min_shift=0.1)
+    assert kept is not None
+    shifted, phi_l = kept
+    assert phi_l == pytest.approx(0.6)
+    assert shifted == pytest.approx([0.0, 0.4, 0.5, 0.9, 1.3])
+    # no net travel to absorb the shift: a wider window is needed
+    assert shift_reversed_keep_ends(np.array([0.0, 1.0, 0.0]), +1.0, 0.1) is None
+
+
+def test_end_fixed_lsq_cubic_keeps_the_ends_and_reproduces_a_cubic() -> None:
+    t = np.linspace(2.0, 3.0, 40)
+    u = t - 2.0
+    cubic = 1.0 + u - 2.0 * u**2 + 0.5 * u**3
+    assert end_fixed_lsq_cubic(t, cubic, cubic) == pytest.approx(cubic, abs=1e-12)
+    noisy = cubic + 0.3 * np.sin(20.0 * u)
+    fit = end_fixed_lsq_cubic(t, cubic, noisy)
+    assert fit[0] == pytest.approx(cubic[0], abs=1e-12)
+    assert fit[-1] == pytest.approx(cubic[-1], abs=1e-12)
+
+
+def test_reversed_windows_hand_case() -> None:
+    # reversed increments 10..12 (points 10..13) and 30: pad k * max(len, 4)
+    values = np.arange(50.0)
+    values[11:14] = [9.5, 9.0, 8.5]
+    values[31] = 29.5
+    assert reversal_points(values).tolist() == [10, 13, 30, 31]
+    assert reversed_windows(values, +1.0, 0.0, 1) == [(6, 17), (26, 35)]
+    assert reversed_windows(values, +1.0, 0.0, 3) == [(0, 43)]  # overlapping: merged
+
+
+def test_local_shift_and_smooth_converges_where_one_cubic_cannot() -> None:
+    """An A curve like the nine-blade upper suction passes: a fast rise to a plateau,
+    a 0.07 deg dip near the trailing edge (measured shape, 447 points)."""
+    t = np.linspace(0.0, 1.0, 447)
+    a = np.radians(-87.0 + 41.0 * (1.0 - np.exp(-6.0 * t))
+                   - 0.07 * np.exp(-(((t - 0.9) / 0.03) ** 2)))
+    deadband = math.radians(1e-5)
+    assert count_reversals(a, deadband) == 2
+    local = smooth_monotone(t, a, min_shift=math.radians(0.01), deadband=deadband)
+    whole = smooth_monotone(t, a, min_shift=math.radians(0.01), deadband=deadband,
+                            scope="path")
+    assert local.method == "shift+lsq-local" and local.rounds <= 5
+    assert count_reversals(local.values, deadband) == 0
+    assert count_reversals(whole.values, deadband) == 0
+    # one cubic over the whole path cannot follow the knee: degrees of change
+    local_change = np.degrees(np.abs(local.values - a).max())
+    whole_change = np.degrees(np.abs(whole.values - a).max())
+    assert local_change < 0.1 and whole_change > 1.0
+    # outside the windows the curve is untouched
+    assert np.array_equal(local.values[:300], a[:300])
+
+
 def test_four_basis_functions_are_one_cubic() -> None:
     assert uniform_knots(4).tolist() == [0, 0, 0, 0, 1, 1, 1, 1]
     assert uniform_knots(6).tolist() == pytest.approx([0, 0, 0, 0, 1 / 3, 2 / 3, 1, 1, 1, 1])
@@ -76,7 +135,7 @@ def test_smooth_monotone_removes_known_reversals() -> None:
     a = np.radians(20.0 * t + 2.0 * np.sin(6.0 * np.pi * t))  # 6 reversals
     assert count_reversals(a) == 6
     result = smooth_monotone(t, a, min_shift=math.radians(0.01), deadband=1e-9)
-    assert result.method in ("shift+lsq", "monotone-lsq")
+    assert result.method in ("shift+lsq-local", "monotone-lsq")
     assert count_reversals(result.values, 1e-9) == 0
     assert len(result.phi_l) == result.rounds >= 1
     # nothing to do: unchanged

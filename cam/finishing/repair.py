@@ -1,0 +1,489 @@
+"""Posture repair where the paper's remedy cannot help (after M3 steps 6-7).
+
+The paper's remedy (eq. 7) turns the whole path about the C axis. Where the tool
+axis is almost parallel to the C axis (the outlet of a centrifugal impeller: hub
+nearly flat, blade nearly upright) turning C hardly moves the tool, so a neck that
+is too close to the blade tip stays there. Before giving up ("use a smaller tool",
+step 8) the postures that still break a rule are repaired one by one:
+
+1. **Rules** per posture: no tool part touches the part, shank and holder keep
+   ``clearance_mm`` (also along the motion to the neighbours), the axis is at least
+   ``min_normal_angle_deg`` from the contact normal and, on hub-contact paths, lead
+   and tilt stay within ``max_lead_deg`` / ``max_tilt_deg``.
+2. **Cone search**: for each posture breaking a rule, candidate axes
+   ``cos(theta) a + sin(theta) (cos(psi) e1 + sin(psi) e2)`` on rings
+   ``theta = k * tilt_search_step_deg`` up to ``tilt_search_deg`` and
+   ``tilt_directions`` directions psi (e1 away from the wall); candidates that break
+   a geometric rule (normal angle, lead/tilt) are dropped; per posture and direction
+   the smallest theta whose posture is collision-free with ``clearance_mm +
+   repair_margin_mm`` is kept. The ball centre stays where it is (tip = centre - R
+   axis). Along each cluster of neighbouring offenders the directions are chosen
+   together (``_chain``): least total change ``|dA| + |dC| + theta`` in the machine's
+   joints, penalising targets against the direction of A or C.
+3. **Monotone absorption** (``absorb_monotone``): the chosen joints become anchors;
+   the curve between anchors, and on ramps of at least ``repair_blend_mm`` of path
+   before and after them, is the affine remap of the old curve in proportion to its
+   own travel. With anchors monotone in the axis direction the new curve is monotone
+   wherever the old one was: no reverse movement can appear (the smoothing of steps
+   3-5 is not undone). The ramps are extended until the old curve lies behind
+   (before) / beyond (after) the anchors.
+4. Everything is checked again (postures, motions, rules); new offenders (the
+   ramps) go through 2-3 in the next round, up to ``repair_rounds``; the best round
+   (fewest reverse movements, then interferences, then rule breaks) is kept.
+   Postures still breaking a rule are reported by index (``unresolved``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam.finishing.interference import InterferenceResult, check_path
+from cam.finishing.options import FinishOptions
+from cam.finishing.posture import angle_between, lead_tilt
+from cam.finishing.reversals import count_reversals, direction, smooth_monotone
+from cam.tools import Tool
+from postproc.kinematics import Kinematics
+
+if TYPE_CHECKING:
+    from cam.collision import CollisionScene
+
+__all__ = [
+    "PostureRules",
+    "RepairResult",
+    "absorb_monotone",
+    "cone_axes",
+    "repair_postures",
+    "rule_violations",
+]
+
+Array = NDArray[np.float64]
+Mask = NDArray[np.bool_]
+#: Geometric rules are met with this slack, rad (the cone candidates already meet them).
+_RULE_SLACK = 1e-9
+
+
+def _unit(a: Array) -> Array:
+    return np.asarray(a / np.linalg.norm(a, axis=-1, keepdims=True))
+
+
+@dataclass(frozen=True)
+class PostureRules:
+    """Where the rules of one path are evaluated.
+
+    Attributes
+    ----------
+    centre : (n, 3) float64
+        Ideal ball centres (kept by every repair), mm.
+    normal, tangent, away : (n, 3) float64
+        Contact normal, feed direction and wall normal (the first cone direction).
+    hub_contact : bool
+        Lead and tilt limits apply (junction and hub passes).
+    """
+
+    centre: Array
+    normal: Array
+    tangent: Array
+    away: Array
+    hub_contact: bool
+
+
+def rule_violations(axis: Array, rules: PostureRules, options: FinishOptions,
+                    index: NDArray[np.intp] | None = None) -> Mask:
+    """Postures (rows of ``axis``) breaking the normal-angle or lead/tilt rule, ``(n,)``.
+
+    ``index`` selects the rows of ``rules`` the axes belong to (default all).
+    """
+    sel = slice(None) if index is None else index
+    normal, tangent = rules.normal[sel], rules.tangent[sel]
+    bad = angle_between(axis, normal) < math.radians(options.min_normal_angle_deg) - _RULE_SLACK
+    if rules.hub_contact:
+        lead, tilt = lead_tilt(axis, normal, tangent)
+        bad |= np.abs(lead) > math.radians(options.max_lead_deg) + _RULE_SLACK
+        bad |= np.abs(tilt) > math.radians(options.max_tilt_deg) + _RULE_SLACK
+    return np.asarray(bad)
+
+
+def cone_axes(axis: Array, first: Array, theta: float, directions: int) -> Array:
+    """Axes on the cone of half-angle ``theta`` around each axis, ``(n, directions, 3)``.
+
+    Direction 0 is ``first`` made perpendicular to the axis (the wall normal: tilting
+    away from the wall), then every ``2 pi / directions`` about the axis.
+    """
+    e1 = first - np.einsum("ij,ij->i", first, axis)[:, None] * axis
+    norm = np.linalg.norm(e1, axis=1)
+    spare = np.cross(axis, np.where(np.abs(axis[:, [0]]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]]))
+    e1 = np.where(norm[:, None] > 1e-9, e1 / np.maximum(norm, 1e-300)[:, None], _unit(spare))
+    e2 = np.cross(axis, e1)
+    psi = 2.0 * math.pi * np.arange(directions) / directions
+    ring = (np.cos(psi)[None, :, None] * e1[:, None, :]
+            + np.sin(psi)[None, :, None] * e2[:, None, :])
+    return _unit(math.cos(theta) * axis[:, None, :] + math.sin(theta) * ring)
+
+
+def _joint_targets(kins: Kinematics, tip: Array, axis: Array, current: Array
+                   ) -> tuple[Array, Array]:
+    """Rotary joints of candidate postures closest to ``current`` and their change.
+
+    Both inverse branches, C wound to the turn nearest the current C, inside the
+    machine's tilt limits. Returns ``(m, 2)`` joints (A, C, rad) and ``(m,)`` change
+    ``|dA| + |dC|`` (inf where no branch is inside the limits).
+    """
+    branches = kins.inverse_branches(tip, axis)  # (2, m, 5)
+    lower, upper = kins.machine.limits()
+    a = branches[:, :, 3]
+    c = branches[:, :, 4]
+    c = c + 2.0 * math.pi * np.round((current[None, :, 1] - c) / (2.0 * math.pi))
+    cost = np.abs(a - current[None, :, 0]) + np.abs(c - current[None, :, 1])
+    cost = np.where((a >= lower[3]) & (a <= upper[3]), cost, np.inf)
+    pick = np.argmin(cost, axis=0)
+    rows = np.arange(len(tip))
+    return (np.column_stack([a[pick, rows], c[pick, rows]]), np.asarray(cost[pick, rows]))
+
+
+def _clusters(index: NDArray[np.intp]) -> list[NDArray[np.intp]]:
+    """Split increasing indices into runs of neighbours (gaps of at most one point)."""
+    breaks = np.flatnonzero(np.diff(index) > 2) + 1
+    return [np.asarray(c, dtype=np.intp) for c in np.split(np.arange(len(index)), breaks)]
+
+
+#: Cost of a repaired target moving A or C against its direction from the previous
+#: one of the same cluster (rad; the monotone blend cannot meet such a target).
+_AGAINST_PENALTY = 10.0
+
+
+def _chain(rotary: Array, cost: Array, sense: Array) -> NDArray[np.intp]:
+    """Tilt direction per posture of a cluster: least total cost along the chain.
+
+    Dynamic programming (Viterbi) over the postures in path order: a posture's cost
+    is its joint change (inf where the direction does not repair it); a step between
+    consecutive postures costs ``_AGAINST_PENALTY`` for each of A and C whose targets
+    go against the axis' direction.
+
+    Parameters
+    ----------
+    rotary : (m, k, 2) float64
+        Target joints (A, C) per posture and direction, rad.
+    cost : (m, k) float64
+    sense : (2,) float64
+        Directions (+1 / -1) of A and C along the path.
+
+    Returns
+    -------
+    (m,) intp
+        The chosen direction per posture.
+    """
+    m, k = cost.shape
+    total = cost[0].copy()
+    back = np.zeros((m, k), dtype=np.intp)
+    for i in range(1, m):
+        step = rotary[i][None, :, :] - rotary[i - 1][:, None, :]  # (from, to, 2)
+        against = np.sum(sense[None, None, :] * step < 0, axis=2) * _AGAINST_PENALTY
+        reach = total[:, None] + against  # (from, to)
+        back[i] = np.argmin(reach, axis=0)
+        total = reach[back[i], np.arange(k)] + cost[i]
+    choice = np.zeros(m, dtype=np.intp)
+    choice[-1] = int(np.argmin(total))
+    for i in range(m - 1, 0, -1):
+        choice[i - 1] = back[i, choice[i]]
+    return choice
+
+
+def _search(scene: CollisionScene, tool: Tool, kins: Kinematics, axis: Array, joints: Array,
+            rules: PostureRules, index: NDArray[np.intp], options: FinishOptions
+            ) -> tuple[Array, Mask, Array]:
+    """Cone postures that meet every rule at ``index``, chosen along clusters.
+
+    For every posture and tilt direction psi the smallest ring theta whose posture
+    meets every rule is found (rings searched outwards, only for the pairs still
+    open). Along each cluster of neighbouring offenders the directions are chosen
+    together (``_chain``): least total change ``|dA| + |dC| + theta`` (near the C
+    axis a tiny tilt can need a large C turn: the machine's change counts), with a
+    penalty for consecutive targets against the direction of A or C (the monotone
+    blend could not meet them).
+
+    Returns
+    -------
+    target : (m, 2) float64
+        Rotary joints (A, C) of the chosen postures, rad (the old ones where none).
+    found : (m,) bool
+    theta : (m,) float64
+        Cone angle of the chosen posture, rad (NaN where none).
+    """
+    m = len(index)
+    if not m:
+        return np.zeros((0, 2)), np.zeros(0, dtype=bool), np.zeros(0)
+    k = options.tilt_directions
+    step = math.radians(options.tilt_search_step_deg)
+    rings = int(math.floor(options.tilt_search_deg / options.tilt_search_step_deg + 1e-9))
+    need = options.clearance_mm + options.repair_margin_mm
+    theta_min = np.full((m, k), np.inf)
+    rotary = np.zeros((m, k, 2))
+    cost = np.full((m, k), np.inf)
+    current = joints[index][:, 3:5]
+    for ring in range(1, rings + 1):
+        open_pairs = ~np.isfinite(theta_min)
+        if not open_pairs.any():
+            break
+        theta = ring * step
+        cand = cone_axes(axis[index], rules.away[index], theta, k)
+        who, psi = np.nonzero(open_pairs)
+        axes = cand[who, psi]
+        ok = ~rule_violations(axes, rules, options, index[who])
+        if not ok.any():
+            continue
+        who, psi, axes = who[ok], psi[ok], axes[ok]
+        tips = rules.centre[index[who]] - tool.radius * axes
+        report = scene.check_postures(tool, tips, axes,
+                                      cutter_allowance=options.cutter_allowance_mm,
+                                      clearance_cap=options.clearance_exact_mm)
+        clear = np.asarray(report.clearance, dtype=np.float64)
+        good = ~np.asarray(report.collides, dtype=bool) & ~(np.isfinite(clear) & (clear < need))
+        if not good.any():
+            continue
+        who, psi = who[good], psi[good]
+        joint, change = _joint_targets(kins, tips[good], axes[good], current[who])
+        theta_min[who, psi] = theta
+        rotary[who, psi] = joint
+        cost[who, psi] = change + theta  # joint change plus the tilt itself
+    target = current.copy()
+    found = np.zeros(m, dtype=bool)
+    theta_used = np.full(m, np.nan)
+    sense = np.array([direction(joints[:, 3]), direction(joints[:, 4])])
+    for members in _clusters(index):
+        usable = np.isfinite(theta_min[members]) & np.isfinite(cost[members])
+        live = members[usable.any(axis=1)]
+        if not live.size:
+            continue
+        choice = _chain(rotary[live], np.where(usable[usable.any(axis=1)], cost[live], np.inf),
+                        sense)
+        target[live] = rotary[live, choice]
+        theta_used[live] = theta_min[live, choice]
+        found[live] = True
+    return target, found, theta_used
+
+
+def _arc(centre: Array) -> Array:
+    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(centre, axis=0), axis=1))])
+
+
+def absorb_monotone(values: Array, index: NDArray[np.intp], targets: Array, arc: Array,
+                    blend: float, deadband: float = 0.0) -> Array:
+    """Move ``values[index]`` to ``targets`` keeping the curve monotone.
+
+    Parameters
+    ----------
+    values : (n,) float64
+        Axis positions along the path, monotone (beyond ``deadband``) in their
+        overall direction s.
+    index : (m,) intp
+        Increasing indices of the anchors.
+    targets : (m,) float64
+        Wanted positions there. Anchors that go against s relative to the previous
+        anchor are raised to it (``s * cummax``): the curve must stay monotone; such
+        anchors miss their target and are repaired again in the next round.
+    arc : (n,) float64
+        Arc length along the path, mm (the ramps are at least ``blend`` long).
+    blend : float
+        Least length of the ramps before the first and after the last anchor, mm.
+
+    Returns
+    -------
+    (n,) float64
+        Between consecutive anchors (and ramp ends) ``p < q`` the new curve is
+        ``T_p + w (T_q - T_p)`` with ``w = (V_i - V_p) / (V_q - V_p)`` (linear in arc
+        length where ``V_q == V_p``): monotone because ``w`` is and ``T_q - T_p`` has
+        the sign s. Outside the ramps the curve is unchanged; a ramp that would need
+        to start before the path start (end) shifts the whole start (end) instead.
+    """
+    values = np.asarray(values, dtype=np.float64)
+    n = len(values)
+    s = direction(values)
+    sv = s * values
+    t = s * np.maximum.accumulate(s * np.asarray(targets, dtype=np.float64))
+    st = s * t
+    anchors: list[tuple[int, float]] = []
+    # ramp in: back at least `blend`, and until the old curve is behind T_0
+    first = int(index[0])
+    j = first
+    while j > 0 and (arc[first] - arc[j] < blend or sv[j] > st[0] - deadband):
+        j -= 1
+    if j < first:
+        if sv[j] > st[0] - deadband:  # reached the path start: shift the start whole
+            anchors.append((0, float(values[0] + t[0] - values[first])))
+        else:
+            anchors.append((j, float(values[j])))
+    for k, (i, target) in enumerate(zip(index, t, strict=True)):
+        if k:  # back to the old curve between anchors far apart, where it is monotone
+            p = int(index[k - 1])
+            a = p
+            while a < i and (arc[a] - arc[p] < blend or sv[a] < st[k - 1] + deadband):
+                a += 1
+            b = int(i)
+            while b > a and (arc[i] - arc[b] < blend or sv[b] > st[k] - deadband):
+                b -= 1
+            if p < a < b < i:
+                anchors += [(a, float(values[a])), (b, float(values[b]))]
+        anchors.append((int(i), float(target)))
+    last = int(index[-1])
+    j = last
+    while j < n - 1 and (arc[j] - arc[last] < blend or sv[j] < st[-1] + deadband):
+        j += 1
+    if j > last:
+        if sv[j] < st[-1] + deadband:  # reached the path end: shift the end whole
+            anchors.append((n - 1, float(values[-1] + t[-1] - values[last])))
+        else:
+            anchors.append((j, float(values[j])))
+    out = values.copy()
+    out[anchors[0][0]] = anchors[0][1]
+    for (p, tp), (q, tq) in zip(anchors[:-1], anchors[1:], strict=True):
+        seg = np.arange(p, q + 1)
+        span = values[q] - values[p]
+        if s * span > 0:
+            w = (values[seg] - values[p]) / span
+        else:
+            w = (arc[seg] - arc[p]) / max(arc[q] - arc[p], 1e-300)
+        out[seg] = tp + w * (tq - tp)
+    return out
+
+
+@dataclass
+class RepairResult:
+    """What ``repair_postures`` did to one path.
+
+    Attributes
+    ----------
+    interference : InterferenceResult
+        Final check of the repaired postures.
+    joints : (n, 5) float64
+        Joints of the final postures (inverse kinematics).
+    rounds : int
+        Search-and-absorb rounds made.
+    tilted : (k,) intp
+        Postures a cone search repaired (any round).
+    max_tilt : float
+        Largest cone angle used, rad.
+    unresolved : (j,) intp
+        Postures still breaking a rule (collision, clearance, normal angle, lead/tilt).
+    """
+
+    interference: InterferenceResult
+    joints: Array
+    rounds: int
+    tilted: NDArray[np.intp]
+    max_tilt: float
+    unresolved: NDArray[np.intp]
+
+
+def offenders(inter: InterferenceResult, rules: PostureRules,
+              options: FinishOptions) -> NDArray[np.intp]:
+    """Postures breaking a rule: collisions, clearance, both ends of a bad motion,
+    normal angle, lead/tilt."""
+    bad = inter.collides.copy()
+    bad[:-1] |= inter.motion_collides
+    bad[1:] |= inter.motion_collides
+    bad |= rule_violations(inter.axis, rules, options)
+    return np.asarray(np.flatnonzero(bad), dtype=np.intp)
+
+
+def _settle(kins: Kinematics, joints: Array, centre: Array, radius: float, arc: Array,
+            options: FinishOptions) -> Array:
+    """Joints the post will compute for the postures of ``joints`` (ball centres kept).
+
+    Next to the C axis the inverse kinematics may pick another branch or C winding
+    than the blended curve and so bring back a reverse movement; then A and C are
+    smoothed again (``smooth_monotone``, the options' scope) and recomputed, twice
+    at most. The caller re-checks collisions and keeps the round only if it is better.
+    """
+    deadband = math.radians(options.reversal_deadband_deg)
+    if len(arc) < 3:
+        axis = _unit(kins.forward(joints)[1])
+        return kins.inverse(centre - radius * axis, axis)
+    step = np.maximum(np.diff(arc), 1e-9 * max(float(np.max(np.diff(arc))), 1.0))
+    t = np.concatenate([[0.0], np.cumsum(step)])
+    t /= t[-1]  # strictly increasing in [0, 1], as the smoothing of plan.py
+    for attempt in range(3):
+        axis = _unit(kins.forward(joints)[1])
+        joints = kins.inverse(centre - radius * axis, axis)
+        if attempt == 2:
+            break
+        smoothed = joints.copy()
+        changed = False
+        for col in (3, 4):
+            if count_reversals(joints[:, col], deadband):
+                smoothed[:, col] = smooth_monotone(
+                    t, joints[:, col], basis_functions=options.basis_functions,
+                    min_shift=math.radians(options.phi_l_deg), deadband=deadband,
+                    max_rounds=options.max_smoothing_iterations,
+                    scope=options.smoothing_scope).values
+                changed = True
+        if not changed:
+            break
+        joints = smoothed
+    return joints
+
+
+def _badness(inter: InterferenceResult, joints: Array, rules: PostureRules,
+             options: FinishOptions) -> tuple[int, int, int]:
+    """(A and C reverse movements, postures or motions interfering, postures breaking a
+    geometric rule): smaller is better, in this order."""
+    deadband = math.radians(options.reversal_deadband_deg)
+    return (count_reversals(joints[:, 3], deadband) + count_reversals(joints[:, 4], deadband),
+            int(inter.collides.sum() + inter.motion_collides.sum()),
+            int(rule_violations(inter.axis, rules, options).sum()))
+
+
+def repair_postures(scene: CollisionScene, tool: Tool, kins: Kinematics, rules: PostureRules,
+                    inter: InterferenceResult, joints: Array, options: FinishOptions
+                    ) -> RepairResult:
+    """Repair the postures that break a rule (module docstring), rounds until none.
+
+    Parameters
+    ----------
+    inter : InterferenceResult
+        The path after the eq. 7 remedy (postures and their check).
+    joints : (n, 5) float64
+        Their joints (X Y Z mm, A C rad), reverse-movement free.
+    """
+    radius = tool.radius
+    arc = _arc(rules.centre)
+    deadband = math.radians(options.reversal_deadband_deg)
+    tilted: set[int] = set()
+    max_tilt = 0.0
+    rounds = 0
+    bad = offenders(inter, rules, options)
+    best = (_badness(inter, joints, rules, options), inter, joints, bad, set(tilted), max_tilt)
+    while bad.size and rounds < options.repair_rounds:
+        rounds += 1
+        target, found, theta = _search(scene, tool, kins, inter.axis, joints, rules, bad,
+                                       options)
+        if not found.any():
+            break
+        index = bad[found]
+        new = joints.copy()
+        for col in (3, 4):
+            wanted = target[found, col - 3]
+            if np.allclose(wanted, joints[index, col], atol=deadband, rtol=0):
+                continue
+            new[:, col] = absorb_monotone(joints[:, col], index, wanted, arc,
+                                          options.repair_blend_mm, deadband)
+        joints = _settle(kins, new, rules.centre, radius, arc, options)
+        axis = _unit(kins.forward(joints)[1])
+        tip = rules.centre - radius * axis
+        inter_new = check_path(scene, tool, tip, axis, options)
+        inter_new.delta_c, inter_new.steps, inter_new.c_max = (inter.delta_c, inter.steps,
+                                                               inter.c_max)
+        inter = inter_new
+        tilted.update(int(i) for i in index)
+        max_tilt = max(max_tilt, float(np.nanmax(theta)))
+        bad = offenders(inter, rules, options)
+        badness = _badness(inter, joints, rules, options)
+        if badness < best[0]:
+            best = (badness, inter, joints, bad, set(tilted), max_tilt)
+    _, inter, joints, bad, tilted, max_tilt = best
+    return RepairResult(inter, joints, rounds, np.asarray(sorted(tilted), dtype=np.intp),
+                        max_tilt, bad)
