@@ -56,7 +56,7 @@ def first_contacts(
     collides = np.zeros(n, dtype=bool)
     part_hit = np.full(n, -1, dtype=np.int8)
     role_hit = np.full(n, -1, dtype=np.int64)
-    flat = state.reshape(n, -1)
+    flat = state.reshape(n, state.shape[1] * roles)  # n may be 0
     first = np.argmax(flat != CLEAR, axis=1)
     first_state = flat[np.arange(n), first]
     decided = first_state == HIT

@@ -263,6 +263,13 @@ def test_tilted_ball_above_plane(floor_scene: CollisionScene, tilt_deg: float) -
         assert np.isnan(report.clearance[0])
 
 
+def test_no_postures_give_an_empty_report(floor_scene: CollisionScene) -> None:
+    empty = np.zeros((0, 3))
+    report = floor_scene.check_postures(BALL, empty, empty)
+    assert report.collides.shape == (0,) and report.clearance.shape == (0,)
+    assert not report.collides.any()
+
+
 def test_cutter_allowance_lets_the_ball_touch(floor_scene: CollisionScene) -> None:
     touching = [[0.0, 0.0, -0.01]]
     assert floor_scene.check_postures(BALL, touching, UP).collides[0]
