@@ -15,7 +15,6 @@ scheduler address; ``workers=0`` runs them in this process (no Dask).
 
 from __future__ import annotations
 
-import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -27,6 +26,7 @@ from numpy.typing import NDArray
 from cam.motion.plant import TwoMassPlant
 from cam.motion.positioning import Settling, positioning_times
 from cam.motion.scurve import PAPER_PID_PERIOD, plan_scurve
+from impeller_cam.cluster import dask_client
 from impeller_cam.errors import InputError
 
 #: The paper's Case I S factor (all other parameters at their maxima).
@@ -244,27 +244,8 @@ def _run_tasks(
             if progress is not None:
                 progress(done, len(ranges))
         return parts
-    from dask.distributed import Client, LocalCluster
-
-    cluster = None
-    if scheduler is None:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
-        client = Client(cluster)
-    else:
-        try:
-            client = Client(scheduler, timeout=f"{connect_timeout}s")
-        except (OSError, TimeoutError) as error:
-            raise InputError(f"cannot reach the Dask scheduler: {error}",
-                             field="--scheduler", value=scheduler,
-                             accepted="a running scheduler address, e.g. tcp://host:8786"
-                             ) from None
-    try:
+    with dask_client(scheduler, workers, connect_timeout) as client:
         return _submit(client, plant, stroke, grid, settling, pid_period, ranges, progress)
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
 
 
 def optimise(

@@ -11,7 +11,6 @@ processes by default; ``scheduler`` connects to a running one instead.
 from __future__ import annotations
 
 import json
-import logging
 import time
 from pathlib import Path
 from typing import Any
@@ -19,6 +18,7 @@ from typing import Any
 from cam.run.chain import impeller_name, run_chain
 from cam.run.record import read_record
 from impeller_cam.atomic import write_text_atomic
+from impeller_cam.cluster import dask_client
 from impeller_cam.errors import InputError
 
 __all__ = ["chain_task", "run_batch"]
@@ -84,8 +84,6 @@ def run_batch(
     InputError
         No spec, duplicate impeller names, bad workers, unreachable scheduler.
     """
-    from dask.distributed import Client, LocalCluster
-
     if not specs:
         raise InputError("no spec given", field="SPEC", accepted="one or more spec TOMLs")
     if workers < 1:
@@ -100,29 +98,12 @@ def run_batch(
                              file=spec, field="impeller.name", value=name,
                              accepted=f"a name other than that of {names[name]}")
         names[name] = str(spec)
-    cluster = None
-    if scheduler is None:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
-        client = Client(cluster)
-    else:
-        try:
-            client = Client(scheduler, timeout=f"{connect_timeout}s")
-        except (OSError, TimeoutError) as error:
-            raise InputError(f"cannot reach the Dask scheduler: {error}",
-                             field="--scheduler", value=scheduler,
-                             accepted="a running scheduler address, e.g. tcp://host:8786"
-                             ) from None
     start = time.perf_counter()
-    try:
+    with dask_client(scheduler, workers, connect_timeout) as client:
         futures = [client.submit(chain_task, spec, str(machine), str(out / name), kwargs,
                                  key=f"chain-{name}", pure=False)
                    for name, spec in names.items()]
         results: list[dict[str, Any]] = list(client.gather(futures))
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
     summary: dict[str, Any] = {
         "format": "impeller-cam batch 1",
         "machine": str(machine),
