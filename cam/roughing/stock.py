@@ -4,10 +4,12 @@ The blank is the solid of revolution bounded by the shroud contour offset outwar
 ``stock_allowance`` (M4: "a cylindrical blank is first machined by lathe to form the
 outer profile of the shroud surface"), closed by the inlet face at
 ``z_top = max z(shroud) + allowance`` and the outer cylinder at
-``r_out = max r(shroud) + allowance``. A ball of radius R centred at ``c`` cuts
-material only if it meets the blank: ``d_blank(c) > -R`` with ``d_blank`` the signed
-distance to the offset shroud (positive inside), ``c_z - R < z_top`` and
-``r(c) - R < r_out``.
+``r_out = max r(shroud, hub) + allowance`` (a hub rim and the blades' trailing edge at
+the hub may reach beyond the shroud outlet; the verification blank,
+``cam.verify.sources.blank_profile``, has the same outer radius). A ball of radius R
+centred at ``c`` cuts material only if it meets the blank: ``d_blank(c) > -R`` with
+``d_blank`` the signed distance to the offset shroud (positive inside),
+``c_z - R < z_top`` and ``r(c) - R < r_out``.
 """
 
 from __future__ import annotations
@@ -31,7 +33,8 @@ class Blank:
         self.allowance = float(surfaces.spec.stock_allowance)
         contour = self.shroud.contour
         self.z_top = float(contour[:, 0].max()) + self.allowance
-        self.r_out = float(contour[:, 1].max()) + self.allowance
+        hub_r = float(np.asarray(surfaces.spec.hub_contour)[:, 1].max())
+        self.r_out = max(float(contour[:, 1].max()), hub_r) + self.allowance
 
     def touches(self, centres: NDArray[np.float64], radius: float) -> NDArray[np.bool_]:
         """True where a ball of ``radius`` at ``centres`` ``(..., 3)`` meets the blank."""
