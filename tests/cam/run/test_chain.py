@@ -97,13 +97,11 @@ def test_verification_finds_no_gouge_and_no_overtravel(chain_small: Path) -> Non
     assert not load(chain_small, "verify/regions.json")["finish"]["gouge"]  # machined samples
 
 
-@pytest.mark.xfail(strict=True, reason="open defects (issue 8): roughing rapids cross stock "
-                   "beyond the outlet (36 events, up to 3.6 mm, rough_umr1.ngc lines 682-683): "
-                   "roughing's blank ends at the shroud outlet radius + allowance while the "
-                   "verification blank (and the blades' trailing edge at the hub) reach further; "
-                   "the finishing shank/holder touches the stock roughing left (85 events, up to "
-                   "0.44 mm, junction paths at the inlet): finishing checks clearance against "
-                   "the design, not against the roughed stock")
+@pytest.mark.xfail(strict=True, reason="open defects (issue 8): 6 roughing rapids graze "
+                   "stock by 0.06-0.21 mm (rough_umr1.ngc line 1083 and its rotations, r 27 mm, "
+                   "z 11.6 mm); the finishing shank/holder touches the stock roughing left "
+                   "(85 events, up to 0.44 mm, junction paths at the inlet): finishing "
+                   "checks clearance against the design, not against the roughed stock")
 def test_verification_finds_no_holder_collision_and_no_rapid_in_stock(chain_small: Path
                                                                       ) -> None:
     for kind in ("rough", "finish"):
