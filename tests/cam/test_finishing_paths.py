@@ -191,3 +191,33 @@ def test_inlet_hub_passes_end_where_the_cutter_meets_the_splitter() -> None:
     # the passes next to the main blades run up to the splitter junction's start
     assert ends[0][1] == pytest.approx(s_split, abs=1e-9)
     assert ends[-1][1] == pytest.approx(s_split, abs=1e-9)
+
+
+@pytest.mark.parametrize(("name", "radius", "scallop"), [("small", 2.0, 0.8),
+                                                         ("small", 2.0, 0.1),
+                                                         ("nine_blade", 3.0, 0.2)])
+def test_hub_passes_run_over_both_junction_paths_hub_ranges(name: str, radius: float,
+                                                            scallop: float) -> None:
+    """Defect: the passes stopped at the shorter junction path. On the small fixture the
+    suction-side junction ball ends 2.1 mm (of hub meridian) upstream of the trailing
+    edge, and the finished hub kept up to 2.2 mm of roughing stock along it."""
+    surfaces = surfaces_of(name)
+    step = scallop_stepover(radius, scallop)
+    paths = passage_paths(surfaces, radius, 0.5, step, blade=False)
+    ja, jb = paths[0], paths[1]
+    feet = [hub_foot(surfaces.hub, j.centre)[0] for j in (ja, jb)]
+    lo, hi = min(f[0] for f in feet), max(f[-1] for f in feet)
+    assert hi - min(f[-1] for f in feet) > 0.01  # the junctions end at different s
+    te = surfaces.spec.hub_camber[-1]  # (r, theta, z)
+    s_te = surfaces.hub.closest_s(np.array([te[2]]), np.array([te[0]]))[0]
+    assert hi >= s_te  # the passes reach the trailing edge on the hub
+    hub = [p for p in paths if p.operation == "hub"]
+    blades = surfaces.all_blades()
+    for p in hub:
+        s = hub_foot(surfaces.hub, p.centre)[0]
+        assert s[0] == pytest.approx(lo, abs=1e-9) and s[-1] == pytest.approx(hi, abs=1e-9)
+        assert np.all(np.diff(s) > 0)
+        # no longer steps than the junction paths', and the ball clear of every blade
+        assert np.linalg.norm(np.diff(p.centre, axis=0), axis=1).max() <= 0.5 * 1.05
+        clear = np.min([body_distance(b, p.centre) for b in blades], axis=0)
+        assert clear.min() >= radius - 1e-3, p.name
