@@ -4,7 +4,14 @@
 ``phi = (1 - lambda) phi_a(s) + lambda phi_b(s)`` on the hub offset between the two
 junction paths of the passage (M4's interpolation, used here for finishing), with
 ``ceil(widest passage / stepover)`` steps; the axis is the two walls' rulings, turned
-to the pass's angle, interpolated with the same lambda.
+to the pass's angle, interpolated with the same lambda. The passes span the union of
+the two junction paths' hub-foot ranges: the two junction balls end at different
+meridional positions (their centres sit R off the blade along its normal, which leans
+up- or downstream with the blade angle; on the small fixture the suction-side ball
+ends 2.1 mm upstream of the trailing edge on the hub, the pressure-side one 1.7 mm
+beyond it), and stopping the passes at the shorter one left a strip of roughing stock
+on the hub along the trailing edge. Beyond a junction path's end its ``phi`` is
+extended linearly.
 
 With a splitter, the hub passes of the inlet part (between the main blades, ahead of
 the splitter) run up to the splitter junction's start and each one ends where its
@@ -53,8 +60,8 @@ def _unit(a: Array) -> Array:
 def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radius: float,
                stepover: float, passage: int = 0, label: str = "",
                s_limits: tuple[float, float] | None = None,
-               keep_clear: BladeSurface | None = None, reach: float = 0.0
-               ) -> list[CutterPath]:
+               keep_clear: BladeSurface | None = None, reach: float = 0.0,
+               extend_lead: bool = True) -> list[CutterPath]:
     """Hub passes between two junction paths of a passage, leading to trailing edge.
 
     Parameters
@@ -69,6 +76,10 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
         the ball centre) would come closer than ``radius + SPLITTER_MARGIN`` to it.
     reach : float
         Flute length above the ball centre, mm.
+    extend_lead : bool
+        Start at the earlier of the two junction paths' starts (True) or at the later
+        one (False: a splitter's leading edge, where the inlet passes take over). The
+        passes always end at the later of the two ends.
     """
     sa, pa = hub_foot(hub, first.centre)
     sb, pb = hub_foot(hub, second.centre)
@@ -85,15 +96,25 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
     first, second = subset_path(first, ia), subset_path(second, ib)
     sa, pa, sb, pb = sa[ia], pa[ia], sb[ib], pb[ib]
     pa, pb = np.unwrap(pa), np.unwrap(pb)
-    lo, hi = max(sa[0], sb[0]), min(sa[-1], sb[-1])
+    lo = min(sa[0], sb[0]) if extend_lead else max(sa[0], sb[0])
+    hi = max(sa[-1], sb[-1])
     if s_limits is not None:
         lo, hi = max(lo, s_limits[0]), min(hi, s_limits[1])
     if hi <= lo:
         return []
-    count = max(len(first), len(second))
-    s = np.linspace(lo, hi, count)
-    phi_a = np.interp(s, sa, pa)
-    phi_b = np.interp(s, sb, pb)
+    # s spaced so that no pass steps further than the junction paths do: a pass's
+    # centre velocity is affine in lambda, so the two boundaries bound its length
+    fine = np.linspace(lo, hi, 8 * max(len(first), len(second)))
+    speed = np.max([np.linalg.norm(np.diff(hub.offset(fine, _extend(fine, s_x, p_x), radius),
+                                           axis=0), axis=1)
+                    for s_x, p_x in ((sa, pa), (sb, pb))], axis=0)
+    arc = np.concatenate([[0.0], np.cumsum(speed)])
+    step = max(float(np.linalg.norm(np.diff(p.centre, axis=0), axis=1).max())
+               for p in (first, second))
+    count = max(int(math.ceil(arc[-1] / step)) + 1, 2)
+    s = np.interp(np.linspace(0.0, arc[-1], count), arc, fine)
+    phi_a = _extend(s, sa, pa)
+    phi_b = _extend(s, sb, pb)
     # the +theta wall lies less than a turn ahead of the -theta wall
     turns = np.floor((phi_b[0] - phi_a[0]) / (2.0 * math.pi))
     phi_b = phi_b - 2.0 * math.pi * turns
@@ -155,6 +176,15 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
     return out
 
 
+def _extend(x: Array, xp: Array, fp: Array) -> Array:
+    """``np.interp`` inside ``xp``, linear continuation of the end segments outside."""
+    out = np.interp(x, xp, fp)
+    before, after = x < xp[0], x > xp[-1]
+    out[before] = fp[0] + (x[before] - xp[0]) * (fp[1] - fp[0]) / (xp[1] - xp[0])
+    out[after] = fp[-1] + (x[after] - xp[-1]) * (fp[-1] - fp[-2]) / (xp[-1] - xp[-2])
+    return np.asarray(out)
+
+
 def _interp_rows(x: Array, xp: Array, rows: Array) -> Array:
     return np.stack([np.interp(x, xp, rows[:, j]) for j in range(rows.shape[1])], axis=1)
 
@@ -195,8 +225,10 @@ def passage_paths(surfaces: ImpellerSurfaces, radius: float, spacing: float,
             out += hub_passes(*junctions[0], surfaces.hub, radius, stepover)
         else:
             (ja, js), (jp, jb) = junctions
-            out += hub_passes(ja, js, surfaces.hub, radius, stepover, label="a")
-            out += hub_passes(jp, jb, surfaces.hub, radius, stepover, label="b")
+            out += hub_passes(ja, js, surfaces.hub, radius, stepover, label="a",
+                              extend_lead=False)
+            out += hub_passes(jp, jb, surfaces.hub, radius, stepover, label="b",
+                              extend_lead=False)
             # inlet region ahead of the splitter: between the main blades, each pass
             # ending where its ball would come within R of the splitter
             s_split = max(hub_foot(surfaces.hub, js.centre)[0][0],

@@ -9,7 +9,10 @@ in the fillets and on the strip of hub and blade next to them. So every stock su
 sample (a dexel end, ``Stock.surface_samples``) gets the role of its closest design
 triangle (``Impeller.triangle_roles``) and the summary is reported per role, with
 blade and hub samples split into those within ``near_fillet`` of a fillet face and
-the rest.
+the rest. Blade-side samples beyond the shroud envelope (the revolved shroud contour,
+``shroud_offset`` > 0) are the blank's skin over the blade tips: its nearest design
+triangle may be a blade side at the tip edge, but that material is the shroud turning's
+business, not the blade finishing's, so it is reported apart as well.
 """
 
 from __future__ import annotations
@@ -22,10 +25,12 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 __all__ = ["ACCEPTANCE_ROLES", "LabelledDesign", "closest_roles", "passage_position",
-           "region_summary", "role_table"]
+           "region_summary", "role_table", "shroud_offset"]
 
 #: Roles whose surfaces the chain machines and acceptance checks (blade sides, hub).
 ACCEPTANCE_ROLES = ("pressure", "suction", "hub")
+#: Blade-side roles (split off beyond the shroud envelope).
+BLADE_SIDES = ("pressure", "suction")
 #: Samples per chunk of the closest-triangle query.
 CHUNK = 50_000
 
@@ -134,6 +139,44 @@ def passage_position(points: NDArray[np.float64], hub: NDArray[np.float64],
     return np.asarray((1.0 - w) * t_h + w * t_s)
 
 
+def shroud_offset(points: NDArray[np.float64], shroud: NDArray[np.float64],
+                  hub: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Signed meridional distance of points from the shroud contour, mm.
+
+    Positive on the side away from the hub (beyond the shroud envelope the blade tips
+    are turned to), negative towards the hub. Beyond the contour's ends the distance
+    is to the end point, signed by the end segment.
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+        Points in W, mm.
+    shroud, hub : (k, 2) float64
+        Meridional contours (z, r), mm; they must not cross.
+    """
+    zr = np.column_stack([points[:, 2], np.hypot(points[:, 0], points[:, 1])])
+    a, b = shroud[:-1], shroud[1:]
+    ab = b - a
+    length2 = np.sum(ab * ab, axis=1)
+
+    def side(p: NDArray[np.float64]) -> NDArray[np.float64]:
+        out = np.empty(len(p))
+        for s in range(0, len(p), CHUNK):
+            q = p[s:s + CHUNK, None, :]
+            t = np.clip(np.einsum("nkc,kc->nk", q - a[None], ab) / length2[None], 0.0, 1.0)
+            rel = q - (a[None] + t[..., None] * ab[None])
+            dist = np.linalg.norm(rel, axis=2)
+            best = np.argmin(dist, axis=1)
+            rows = np.arange(len(best))
+            r = rel[rows, best]
+            cross = ab[best, 0] * r[:, 1] - ab[best, 1] * r[:, 0]
+            out[s:s + CHUNK] = np.where(cross < 0.0, -1.0, 1.0) * dist[rows, best]
+        return out
+
+    hub_side = float(np.sign(side(hub[len(hub) // 2][None])[0]))
+    return np.asarray(-hub_side * side(zr))
+
+
 def role_table(distance: NDArray[np.float64], limit: float, touched: NDArray[np.bool_]
                ) -> dict[str, Any]:
     """Summary of signed deviations (mm) of one group of samples against ``limit``."""
@@ -210,7 +253,9 @@ def region_summary(design: LabelledDesign, stock_npz: str | Path, allowance: flo
         there. Blade and hub samples upstream of the leading edge or downstream of the
         trailing edge (``passage_position``; the inlet and outlet of the hub are
         axisymmetric lathe work, outside the passages the chain mills) are reported
-        apart as ``<role>_outside_blades``.
+        apart as ``<role>_outside_blades``, blade-side samples between the edges but
+        beyond the shroud envelope (``shroud_offset`` > 0: the blank's skin over the
+        tips, lathe work too) as ``<role>_beyond_shroud``.
 
     Returns
     -------
@@ -235,18 +280,25 @@ def region_summary(design: LabelledDesign, stock_npz: str | Path, allowance: flo
         near[checked] = to_fillet < near_fillet
     position = passage_position(points, *design.meridional)
     between = (position >= 0.0) & (position <= 1.0)
+    hub_contour, shroud_contour = design.meridional[0], design.meridional[1]
+    beyond = np.zeros(len(points), dtype=bool)
+    sides = np.isin(role, BLADE_SIDES) & between
+    beyond[sides] = shroud_offset(points[sides], shroud_contour, hub_contour) > 0.0
     limit = allowance + tolerance
     touched = moves >= 0
     roles: dict[str, Any] = {}
     for name in sorted(set(role.tolist())):
         sel = role == name
         if name in ACCEPTANCE_ROLES:
-            inside = sel & between
+            inside = sel & between & ~beyond
             roles[name] = role_table(signed[inside & ~near], limit, touched[inside & ~near])
             roles[f"{name}_near_fillet"] = role_table(signed[inside & near], limit,
                                                       touched[inside & near])
             roles[f"{name}_outside_blades"] = role_table(signed[sel & ~between], limit,
                                                          touched[sel & ~between])
+            if name in BLADE_SIDES:
+                roles[f"{name}_beyond_shroud"] = role_table(signed[sel & beyond], limit,
+                                                            touched[sel & beyond])
         else:
             roles[name] = role_table(signed[sel], limit, touched[sel])
     acceptance = {name: roles[name] for name in ACCEPTANCE_ROLES if name in roles}

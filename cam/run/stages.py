@@ -62,12 +62,47 @@ def rough_stage(ctx: Context) -> None:
               progress=False, **ctx.settings.rough)
 
 
+def roughed_stock(ctx: Context) -> float:
+    """Largest material the roughing is meant to leave on the part, mm.
+
+    The milled faces keep the finishing allowance eta plus the roughing scallop height
+    (rough.json); faces roughing does not reach keep the blank's stock allowance over
+    the shroud envelope (the spec). The larger of the two.
+    """
+    from geometry.spec import load_spec
+
+    rough = read_json(ctx, "rough/rough.json", "rough")
+    milled = float(rough["finishing_allowance_mm"]) + float(rough["options"]["scallop_mm"])
+    return max(milled, float(load_spec(ctx.spec).stock_allowance))
+
+
+def finish_options(ctx: Context) -> dict[str, Any]:
+    """The finishing options of the chain: shank and holder clear the roughed stock.
+
+    Finishing checks shank and holder against the design, but when it runs the part
+    still carries what roughing left (``roughed_stock``). The finishing setting
+    ``clearance_mm`` (default ``DEFAULT_TOLERANCES.clearance``) is therefore the
+    clearance from that stock: finishing is given ``clearance_mm + roughed_stock``
+    from the design (and ``clearance_exact_mm`` at least that).
+    """
+    from cam.finishing.options import FinishOptions
+
+    options = dict(ctx.settings.finish)
+    defaults = FinishOptions()
+    clearance = float(options.get("clearance_mm", defaults.clearance_mm)) \
+        + roughed_stock(ctx)
+    options["clearance_mm"] = clearance
+    options["clearance_exact_mm"] = max(
+        float(options.get("clearance_exact_mm", defaults.clearance_exact_mm)), clearance)
+    return options
+
+
 def finish_stage(ctx: Context) -> None:
-    """Five-axis finishing (``run_finish``) with the finishing tool."""
+    """Five-axis finishing (``run_finish``) with the finishing tool (``finish_options``)."""
     from cam.finishing.command import run_finish
 
     run_finish(ctx.spec, ctx.machine, ctx.settings.finish_tool, ctx.out / "finish",
-               progress=False, **ctx.settings.finish)
+               progress=False, **finish_options(ctx))
 
 
 def apt_files(ctx: Context) -> list[tuple[str, str, str]]:

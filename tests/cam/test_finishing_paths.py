@@ -53,16 +53,19 @@ def hub_distance_dense(surfaces: ImpellerSurfaces, points: np.ndarray) -> np.nda
     return out
 
 
-def blade_distance_lsq(blade, side: int, points: np.ndarray) -> np.ndarray:  # type: ignore[no-untyped-def]
-    """Distance from a blade side surface: coarse grid seed, then least squares in (u, v)."""
-    u, v = np.meshgrid(np.linspace(0, 1, 101), np.linspace(0, 1.1, 56), indexing="ij")
+def blade_distance_lsq(blade, side: int, points: np.ndarray,  # type: ignore[no-untyped-def]
+                       v_max: float = 1.2) -> np.ndarray:
+    """Distance from a blade side surface: coarse grid seed, then least squares in (u, v)
+    (v up to ``v_max``: 1 is the hub)."""
+    u, v = np.meshgrid(np.linspace(0, 1, 101), np.linspace(0, min(1.1, v_max), 56),
+                       indexing="ij")
     grid = blade.side(u, v, side).reshape(-1, 3)
     out = np.empty(len(points))
     for i, p in enumerate(points):
         k = int(np.argmin(np.linalg.norm(grid - p, axis=1)))
         x0 = [u.ravel()[k], v.ravel()[k]]
         fit = least_squares(lambda x, p=p: blade.side(x[0], x[1], side) - p, x0,
-                            bounds=([0, -0.1], [1, 1.2]), xtol=1e-12, ftol=1e-12)
+                            bounds=([0, -0.1], [1, v_max]), xtol=1e-12, ftol=1e-12)
         out[i] = float(np.linalg.norm(fit.fun))
     return out
 
@@ -191,3 +194,38 @@ def test_inlet_hub_passes_end_where_the_cutter_meets_the_splitter() -> None:
     # the passes next to the main blades run up to the splitter junction's start
     assert ends[0][1] == pytest.approx(s_split, abs=1e-9)
     assert ends[-1][1] == pytest.approx(s_split, abs=1e-9)
+
+
+@pytest.mark.parametrize(("name", "radius", "scallop"), [("small", 2.0, 0.8),
+                                                         ("nine_blade", 3.0, 0.2)])
+def test_hub_passes_run_over_both_junction_paths_hub_ranges(name: str, radius: float,
+                                                            scallop: float) -> None:
+    """Defect: the passes stopped at the shorter junction path. On the small fixture the
+    suction-side junction ball ends 2.1 mm (of hub meridian) upstream of the trailing
+    edge, and the finished hub kept up to 2.2 mm of roughing stock along it."""
+    surfaces = surfaces_of(name)
+    step = scallop_stepover(radius, scallop)
+    paths = passage_paths(surfaces, radius, 0.5, step, blade=False)
+    ja, jb = paths[0], paths[1]
+    feet = [hub_foot(surfaces.hub, j.centre)[0] for j in (ja, jb)]
+    lo, hi = min(f[0] for f in feet), max(f[-1] for f in feet)
+    assert hi - min(f[-1] for f in feet) > 0.01  # the junctions end at different s
+    te = surfaces.spec.hub_camber[-1]  # (r, theta, z)
+    s_te = surfaces.hub.closest_s(np.array([te[2]]), np.array([te[0]]))[0]
+    assert hi >= s_te  # the passes reach the trailing edge on the hub
+    hub = [p for p in paths if p.operation == "hub"]
+    (wall_a, wall_b), = passage_walls(surfaces)
+    for p in hub:
+        s = hub_foot(surfaces.hub, p.centre)[0]
+        assert s[0] == pytest.approx(lo, abs=1e-9) and s[-1] == pytest.approx(hi, abs=1e-9)
+        assert np.all(np.diff(s) > 0)
+        # no longer steps than the junction paths'
+        assert np.linalg.norm(np.diff(p.centre, axis=0), axis=1).max() <= 0.5 * 1.05
+    for p in (hub[0], hub[-1]):
+        # the passes next to the walls keep the ball clear of both walls (their sides
+        # above the hub; every 4th centre and the extended ends)
+        pick = np.union1d(np.arange(0, len(p), 4), [0, 1, len(p) - 2, len(p) - 1])
+        clear = np.minimum(
+            blade_distance_lsq(wall_a.blade, wall_a.side, p.centre[pick], v_max=1.0),
+            blade_distance_lsq(wall_b.blade, wall_b.side, p.centre[pick], v_max=1.0))
+        assert clear.min() >= radius - 1e-3, p.name
