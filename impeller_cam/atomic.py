@@ -71,5 +71,27 @@ def staged_directory(out: str | Path) -> Iterator[Path]:
             out.rmdir()
         raise
     for item in sorted(stage.iterdir()):
-        os.replace(item, out / item.name)
+        replace_path(item, out / item.name)
     stage.rmdir()
+
+
+def replace_path(source: str | Path, target: str | Path) -> None:
+    """Rename ``source`` to ``target``, replacing a file or a whole folder there.
+
+    ``os.replace`` cannot replace a non-empty folder (a rerun's sub-folder): an
+    existing ``target`` folder is renamed aside into a hidden sibling first, the new
+    one renamed into place, then the old one removed.
+    """
+    source, target = Path(source), Path(target)
+    if not target.is_dir() or target.is_symlink():
+        os.replace(source, target)
+        return
+    aside = Path(tempfile.mkdtemp(prefix=f".{target.name}-old-", dir=target.parent))
+    os.replace(target, aside / target.name)
+    try:
+        os.replace(source, target)
+    except BaseException:
+        os.replace(aside / target.name, target)
+        aside.rmdir()
+        raise
+    shutil.rmtree(aside, ignore_errors=True)

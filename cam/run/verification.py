@@ -16,7 +16,6 @@ are written together into ``verify/`` (all or nothing):
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import tempfile
 from collections.abc import Iterator
@@ -26,7 +25,7 @@ from typing import Any
 
 from cam.run.regions import LabelledDesign, region_summary
 from cam.run.stages import Context, nc_programs
-from impeller_cam.atomic import write_text_atomic
+from impeller_cam.atomic import replace_path, write_text_atomic
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
 
 __all__ = ["allowances", "verify_chain"]
@@ -36,9 +35,8 @@ __all__ = ["allowances", "verify_chain"]
 def _staged_folder(folder: Path) -> Iterator[Path]:
     """Build a folder with sub-folders in a hidden sibling; swap it in on success.
 
-    ``staged_directory`` moves items one by one and cannot replace a non-empty
-    sub-folder (a rerun of the stage): here the old folder is renamed aside, the new
-    one renamed into place, then the old one removed. On failure nothing changes.
+    On failure nothing changes; on success the old folder is replaced as a whole
+    (``replace_path``).
     """
     folder.parent.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=f".{folder.name}-staging-", dir=folder.parent))
@@ -47,13 +45,7 @@ def _staged_folder(folder: Path) -> Iterator[Path]:
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)
         raise
-    old = None
-    if folder.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{folder.name}-old-", dir=folder.parent))
-        os.replace(folder, old / folder.name)
-    os.replace(stage, folder)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
+    replace_path(stage, folder)
 
 
 def allowances(ctx: Context) -> dict[str, float]:
