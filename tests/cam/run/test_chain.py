@@ -97,9 +97,16 @@ def test_verification_finds_no_gouge_and_no_overtravel(chain_small: Path) -> Non
     assert not load(chain_small, "verify/regions.json")["finish"]["gouge"]  # machined samples
 
 
-@pytest.mark.xfail(strict=True, reason="open defects (issue 8): 6 roughing rapids graze "
-                   "stock by 0.06-0.21 mm (rough_umr1.ngc line 1083 and its rotations, r 27 mm, "
-                   "z 11.6 mm); the finishing shank/holder touches the stock roughing left "
+def test_verification_finds_no_rapid_in_stock(chain_small: Path) -> None:
+    """Roughing keeps every rapid's ball 0.25 mm clear of the stock it models
+    (``cam.roughing.sweptstock``); the verification's dexel stock agrees."""
+    for kind in ("rough", "finish"):
+        counts = load(chain_small, f"verify/{kind}/verify.json")["event_counts"]
+        assert counts["rapid_in_stock"] == 0, (kind, counts)
+
+
+@pytest.mark.xfail(strict=True, reason="open defect (issue 8): "
+                   "the finishing shank/holder touches the stock roughing left "
                    "(85 events, up to 0.44 mm, junction paths at the inlet): finishing "
                    "checks clearance against the design, not against the roughed stock")
 def test_verification_finds_no_holder_collision_and_no_rapid_in_stock(chain_small: Path
