@@ -5,20 +5,32 @@ also in its ``stockmap.ZMap``). A cut pose (ball centre ``c``, unit axis ``a``)
 leaves the space the tool takes in air: the capsule from ``c`` to ``c + reach a`` of
 radius R (ball, flutes and shank up to the holder; like the Z-map's column above the
 ball: whether the shank rubs stock left by the layers above is not modelled by
-either plan). Cutting runs are sampled every ``step`` mm
-along their moves (centre and axis interpolated) and every ``step`` mm up each
-sample's axis; the union of balls of radius R about those points lies inside the
-swept capsules, and covers every point of them within ``R - shrink`` of their axes
-when ``shrink >= R - sqrt(R^2 - step^2 / 2)`` (a point half a step off the samples
-both along the move and up the axis), so "within R of a sample" is a conservative
-test of "removed", and the tested ball is shrunk by that much (plus 0.01 mm; at
-least ``SHRINK``): 0.06 mm for R = 5 and 1 mm steps.
+either plan). Cutting runs are sampled every ``step`` mm along their moves (centre
+and axis interpolated) and every ``step`` mm up each sample's axis; every sample lies
+on a capsule's axis, so a point within R of a sample is removed (the union of those
+balls lies inside the swept capsules).
 
-A ball centre ``p`` is **in air** before run ``r`` when every point of the ball
-shrunk by ``shrink`` (its centre and ``SPHERE`` points on its surface) is outside
-the blank (``Blank.touches`` with radius 0) or within R of a sample of a run before
-``r``. ``approach`` finds how far up the axis above a run's start the ball must
-come down from to stay in air all the way.
+A ball centre ``p`` is **in air** before run ``r`` when the ball of radius
+``R + clearance`` about it holds no stock. Tested: its centre and the ``SPHERE``
+points on its surface (``rho = R + clearance``), each with a margin
+``m = rho * SPHERE_COVER`` (every point of the sphere lies within ``m`` of a tested
+point): a tested point counts as air when it is at least ``m`` outside the blank
+(``Blank.touches`` with radius ``m``) or within ``R - m`` of a sample of a run
+before ``r`` (so the whole ``m``-ball about it is removed). Then no point of the
+sphere is stock; stock inside it would have to be an island cut loose from the rest,
+which sweeps of the tool from outside do not leave. A ball centred on the axis of a
+cut pose, within ``reach`` above it, is in air too (inside the capsule that pose's
+tool took: a rapid up the axis out of the cut, which touches the walls it has just
+cut and so has no clearance to keep). (The tested ball used to be the
+tool's ball shrunk by the sampling error, tested at 48 surface points without a
+margin: the stock could reach 0.1 mm plus a 0.2 mm cap between the points into the
+tool; the verification found such rapids on the small fixture, 0.03 mm into
+stock.)
+
+``approach`` finds how far up the axis above a run's start the ball must come down
+from to stay in air all the way, testing every ``step`` mm (default 0.25): every pose
+of the descent is within ``step / 2`` of a tested one, so the tool's ball keeps
+``clearance - step / 2`` (``RAPID_CLEARANCE`` 0.25 mm: 0.125 mm) from the stock.
 """
 
 from __future__ import annotations
@@ -33,11 +45,19 @@ from cam.roughing.stock import Blank
 
 __all__ = ["SweptStock"]
 
-#: The ball tested for air is the tool's ball shrunk by at least this much, mm.
-SHRINK = 0.05
+#: The ball tested for air is the tool's ball grown by this much, mm.
+RAPID_CLEARANCE = 0.25
+#: A ball centre this close to a cut pose's axis is on it, mm.
+ON_AXIS = 1e-6
+#: Points of the unit sphere tested (``SPHERE``).
+SPHERE_POINTS = 1000
+#: Covering radius of ``SPHERE`` on the unit sphere: every unit vector lies within
+#: this (chord) distance of a ``SPHERE`` point (0.0836 measured on 2e5 random unit
+#: vectors, rounded up; tests/cam/test_roughing_formulas.py checks it).
+SPHERE_COVER = 0.09
 
 
-def _sphere(n: int = 48) -> NDArray[np.float64]:
+def _sphere(n: int = SPHERE_POINTS) -> NDArray[np.float64]:
     """``n`` unit vectors spread over the sphere (Fibonacci lattice)."""
     k = np.arange(n) + 0.5
     z = 1.0 - 2.0 * k / n
@@ -66,17 +86,22 @@ class SweptStock:
         labelled below ``r``.
     step : float
         Sample spacing along the moves and up the axes, mm.
+    clearance : float
+        The ball tested for air is R + ``clearance``, mm.
     """
 
     def __init__(self, blank: Blank, radius: float, reach: float,
                  runs: list[NDArray[np.float64]], axes: list[NDArray[np.float64]],
-                 labels: list[int] | None = None, step: float = 1.0) -> None:
+                 labels: list[int] | None = None, step: float = 1.0,
+                 clearance: float = RAPID_CLEARANCE) -> None:
         self.blank = blank
         self.radius = float(radius)
-        self.shrink = max(SHRINK, self.radius - math.sqrt(max(
-            self.radius ** 2 - step ** 2 / 2.0, 0.0)) + 0.01)
+        self.clearance = float(clearance)
+        self.probe_radius = self.radius + self.clearance
+        self.margin = self.probe_radius * SPHERE_COVER
+        self.reach = max(float(reach), 0.0)
         labels = list(range(len(runs))) if labels is None else list(labels)
-        up = np.arange(0.0, max(reach, 0.0) + 1e-9, step)
+        up = np.arange(0.0, self.reach + 1e-9, step)
         pts: list[NDArray[np.float64]] = []
         lab: list[NDArray[np.int64]] = []
         for run, ax, label in zip(runs, axes, labels, strict=True):
@@ -89,42 +114,74 @@ class SweptStock:
         order = np.argsort(self.labels, kind="stable")  # labels ascending: "before" is a prefix
         self.points, self.labels = self.points[order], self.labels[order]
         self.tree = cKDTree(self.points) if len(self.points) else None
+        # the poses themselves (ball centre, axis, label): a ball on a pose's axis
+        poses = [(np.asarray(r, np.float64), np.asarray(a, np.float64), label)
+                 for r, a, label in zip(runs, axes, labels, strict=True) if len(r)]
+        self.poses = np.concatenate([r for r, _, _ in poses]) if poses else np.zeros((0, 3))
+        self.pose_axes = np.concatenate([a for _, a, _ in poses]) if poses else np.zeros((0, 3))
+        self.pose_labels = (np.concatenate([np.full(len(r), label, np.int64)
+                                            for r, _, label in poses])
+                            if poses else np.zeros(0, np.int64))
 
     def air(self, centres: NDArray[np.float64], before: int) -> NDArray[np.bool_]:
-        """Whether balls at ``centres`` ``(n, 3)`` are in air before run ``before``."""
+        """Whether balls of radius R + clearance at ``centres`` ``(n, 3)`` hold no stock
+        before run ``before`` (module docstring)."""
         c = np.asarray(centres, dtype=np.float64).reshape(-1, 3)
-        probe = c[:, None] + (self.radius - self.shrink) * np.concatenate(
+        probe = c[:, None] + self.probe_radius * np.concatenate(
             [np.zeros((1, 3)), SPHERE])[None]
         flat = probe.reshape(-1, 3)
-        ok = ~self.blank.touches(flat, 0.0)
+        ok = ~self.blank.touches(flat, self.margin)
         prefix = int(np.searchsorted(self.labels, before, side="left"))
-        if self.tree is not None and prefix > 0 and not ok.all():
+        within = self.radius - self.margin
+        if self.tree is not None and prefix > 0 and not ok.all() and within > 0.0:
             rest = np.flatnonzero(~ok)
-            d, idx = self.tree.query(flat[rest], k=8, distance_upper_bound=self.radius)
-            within = np.isfinite(d)
-            ok[rest] = (within & (idx < prefix)).any(axis=1)
-            # all 8 nearest within R but from later runs: look at every sample in reach
-            unsure = np.flatnonzero(within.all(axis=1) & ~ok[rest])
+            d, idx = self.tree.query(flat[rest], k=8, distance_upper_bound=within)
+            found = np.isfinite(d)
+            ok[rest] = (found & (idx < prefix)).any(axis=1)
+            # all 8 nearest within reach but from later runs: look at every sample
+            unsure = np.flatnonzero(found.all(axis=1) & ~ok[rest])
             for i in rest[unsure].tolist():
-                near = self.tree.query_ball_point(flat[i], self.radius)
+                near = self.tree.query_ball_point(flat[i], within)
                 ok[i] = bool(near) and min(near) < prefix
-        return np.asarray(ok.reshape(probe.shape[:2]).all(axis=1))
+        inside = np.asarray(ok.reshape(probe.shape[:2]).all(axis=1), dtype=bool)
+        for i in np.flatnonzero(~inside).tolist():
+            inside[i] = self._on_a_column(c[i], before)
+        return np.asarray(inside)
+
+    def _on_a_column(self, centre: NDArray[np.float64], before: int) -> bool:
+        """The ball at ``centre`` lies on the axis of a cut pose of a run before
+        ``before``, within ``reach`` above it: inside the capsule that pose's tool
+        took (a rapid up the axis out of the cut, in contact with the walls it has
+        just cut, zero clearance)."""
+        earlier = self.pose_labels < before
+        if not earlier.any():
+            return False
+        rel = centre[None] - self.poses[earlier]
+        along = np.einsum("ij,ij->i", rel, self.pose_axes[earlier])
+        off = np.linalg.norm(rel - along[:, None] * self.pose_axes[earlier], axis=1)
+        return bool(np.any((off <= ON_AXIS) & (along >= -ON_AXIS)
+                           & (along <= self.reach + ON_AXIS)))
 
     def approach(self, start: NDArray[np.float64], axis: NDArray[np.float64], top: float,
-                 before: int, step: float = 0.5) -> float:
+                 before: int, step: float = 0.25, chunk: int = 32) -> float:
         """Lowest ``t`` in ``[0, top]`` such that the ball stays in air from
         ``start + top axis`` down to ``start + t axis`` (before run ``before``), mm.
 
-        ``top`` itself must be in air (the caller's clear point).
+        Tested every ``step`` mm from ``top`` down (``chunk`` poses at a time, until
+        the first one not in air). ``top`` itself must be in air (the caller's clear
+        point); when it is not, ``top`` is returned.
         """
         t = np.arange(top, -1e-9, -step)
         if not len(t):
             return top
-        ok = self.air(start[None] + t[:, None] * axis[None], before)
-        bad = np.flatnonzero(~ok)
-        if not len(bad):
-            return 0.0
-        return float(t[bad[0] - 1]) if bad[0] > 0 else float(top)
+        for lo in range(0, len(t), chunk):
+            part = t[lo:lo + chunk]
+            ok = self.air(start[None] + part[:, None] * axis[None], before)
+            bad = np.flatnonzero(~ok)
+            if len(bad):
+                first = lo + int(bad[0])
+                return float(t[first - 1]) if first > 0 else float(top)
+        return 0.0
 
 
 def _along(run: NDArray[np.float64], axes: NDArray[np.float64], step: float

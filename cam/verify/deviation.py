@@ -8,7 +8,13 @@ from the part: a gouge). The mesh is subdivided so no edge is longer than
 ``max_edge``; a KD-tree over triangle centroids gives ``candidates`` triangles per
 point, whose exact closest points (``trimesh.triangles.closest_point``) give the
 distance; the sign is that of ``(p - q) . n`` for the closest triangle (among equally
-close ones, the one whose normal is best aligned with ``p - q``). Sliver triangles
+close ones, within ``TIE`` mm, the one whose normal is best aligned with ``p - q``).
+Where the closest point is a vertex or an edge, every triangle there is equally
+close, but ``closest_point`` answers them with rounding errors of about 1e-9 mm
+(tiny triangles of a tessellated rounded edge): with an exact tie only a fan of tiny
+faces nearly parallel to ``p - q`` could be left to give the sign, and a point 5-9 mm
+outside a blade's outlet corner came out inside (nine_blade: false gouges of
+4.9-9.1 mm). Sliver triangles
 (height below 1e-6 of their longest edge: no area, numerically arbitrary normal) are
 left out.
 
@@ -35,6 +41,9 @@ CHUNK = 100_000
 #: Inside answers deeper than this are made exact (``DesignDistance.__call__``), mm;
 #: shallower ones lie on the surface either way (far below any gouge tolerance).
 EXACT_BELOW = 0.005
+#: Triangles whose closest point is this much farther than the closest one's still
+#: count as equally close for the sign (rounding of ``closest_point``), mm.
+TIE = 1e-6
 
 
 class DesignDistance:
@@ -121,7 +130,7 @@ class DesignDistance:
         dist = np.linalg.norm(diff, axis=2)
         dot = np.einsum("nkc,nkc->nk", diff, self.normals[idx])
         best = dist.min(axis=1)
-        close = dist <= best[:, None] + 1e-9
+        close = dist <= best[:, None] + TIE
         align = np.where(close, np.abs(dot) / np.maximum(dist, 1e-300), -1.0)
         pick = np.argmax(align, axis=1)
         sign = np.sign(dot[np.arange(len(p)), pick])

@@ -280,22 +280,61 @@ class _BoxBlank:
 
 
 def test_swept_stock_air_in_the_tool_tube_only_after_the_cut() -> None:
+    """Three runs along x at y = -1, 0, 1 (z = 0, axis +Z, R = 2) cut the slab
+    |y| <= 3 up through the box's top z = 10; the ball tested is R + 0.25 (the
+    clearance), each tested point with the margin m = 2.25 * SPHERE_COVER."""
+    from cam.roughing.sweptstock import RAPID_CLEARANCE, SPHERE_COVER, SweptStock
+
+    axes = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])
+    runs = [np.array([[0.0, y, 0.0], [10.0, y, 0.0]]) for y in (-1.0, 0.0, 1.0)]
+    swept = SweptStock(_BoxBlank(), 2.0, 30.0, runs, [axes] * 3)  # type: ignore[arg-type]
+    assert RAPID_CLEARANCE == 0.25 and swept.margin == pytest.approx(2.25 * SPHERE_COVER)
+    above = np.array([[5.0, 0.0, 4.0]])  # in the slab over the runs
+    beside = np.array([[5.0, 2.0, 4.0]])  # its ball reaches y = 4.25: uncut stock
+    assert swept.air(above, before=3)[0] and not swept.air(above, before=0)[0]
+    assert not swept.air(beside, before=3)[0]
+    assert swept.air(np.array([[5.0, 1.0, 12.5]]), before=0)[0]  # above the blank
+    # coming down the axis over (5, 0): in air down to where the tested ball's bottom
+    # (t - 2.25) is within R - m of the run's samples at z = 0, t >= 0.25 + m
+    lowest = RAPID_CLEARANCE + swept.margin
+    t = swept.approach(np.array([5.0, 0.0, 0.0]), axes[0], 14.0, 3)
+    assert lowest <= t <= lowest + 0.25
+    # over a point beside the runs: only above the blank by the clearance and the
+    # margin (t - 2.25 - m >= 10), tested every 0.25 mm from 14 down
+    t = swept.approach(np.array([20.0, 0.0, 0.0]), axes[0], 14.0, 3)
+    assert 12.0 + lowest <= t <= 12.0 + lowest + 0.25
+
+
+def test_swept_stock_a_ball_grazing_the_wall_of_its_groove_is_not_in_air() -> None:
+    """The small fixture's defect: a rapid coming down the axis beside the wall of a cut
+    at 0.03 mm less than R from it. One run along x at y = 0 cuts the groove |y| <= 2
+    (R = 2); a ball at y = 0.03 meets its wall by 0.03 mm: in stock (the former test, a
+    ball shrunk by 0.09 mm and 48 points on it, said air)."""
     from cam.roughing.sweptstock import SweptStock
 
     run = np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0]])
     axes = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])
     swept = SweptStock(_BoxBlank(), 2.0, 30.0, [run], [axes])  # type: ignore[arg-type]
-    above = np.array([[5.0, 0.0, 4.0]])  # in the swept tube over the run
-    beside = np.array([[5.0, 1.0, 4.0]])  # 1 mm out of it: its ball meets uncut stock
-    assert swept.air(above, before=1)[0] and not swept.air(above, before=0)[0]
-    assert not swept.air(beside, before=1)[0]
-    assert swept.air(np.array([[5.0, 1.0, 12.5]]), before=0)[0]  # above the blank
-    # coming down the axis over (10, 0): in air down to the run's end (t = 0)
-    assert swept.approach(np.array([10.0, 0.0, 0.0]), axes[0], 14.0, 1) == 0.0
-    # over a point beside the run: only above the blank (shrunk ball bottom >= 10,
-    # sampled every 0.5 mm)
-    t = swept.approach(np.array([20.0, 0.0, 0.0]), axes[0], 14.0, 1)
-    assert 12.0 - swept.shrink - 0.5 <= t <= 12.0
+    assert not swept.air(np.array([[5.0, 0.03, 4.0]]), before=1)[0]
+    # straight up the axis of the run's last pose (10, 0, 0): inside the space its tool
+    # took, in air after the run (a retract, no clearance to keep), not before it
+    assert swept.air(np.array([[10.0, 0.0, 6.0]]), before=1)[0]
+    assert not swept.air(np.array([[10.0, 0.0, 6.0]]), before=0)[0]
+    assert not swept.air(np.array([[10.0, 0.03, 6.0]]), before=1)[0]
+
+
+def test_swept_stock_sphere_points_cover_the_sphere() -> None:
+    """Every unit vector lies within SPHERE_COVER of a SPHERE point (2e5 random ones)."""
+    from scipy.spatial import cKDTree
+
+    from cam.roughing.sweptstock import SPHERE, SPHERE_COVER
+
+    rng = np.random.default_rng(3)
+    v = rng.normal(size=(200_000, 3))
+    v /= np.linalg.norm(v, axis=1)[:, None]
+    gap, _ = cKDTree(SPHERE).query(v)
+    assert gap.max() < SPHERE_COVER
+    assert gap.max() > 0.9 * SPHERE_COVER  # the bound is not loose
 
 
 def test_retilt_turns_the_flutes_off_a_wall() -> None:

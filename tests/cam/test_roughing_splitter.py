@@ -86,15 +86,14 @@ def test_allowance_against_independent_stl(rough: tuple[Path, dict], tmp_path: P
 
 
 def test_three_axis_faster_than_five_axis(rough: tuple[Path, dict]) -> None:
-    """Measured on this fixture (docs/roughing.md): with both programs linked alike and
-    the baseline valid, the 3+2 plan is shorter at all four feeds with the machine's
-    acceleration and jerk limits, and within 0.5 % of the baseline nominally (shorter
-    at 500 mm/min, 0.06-0.4 % longer above); it cuts a shorter path."""
+    """Measured on this fixture (docs/roughing.md): with both programs linked alike, the
+    baseline valid and every approach 0.25 mm clear of the stock, the 3+2 plan is
+    shorter at all four feeds, nominal (0.8-1.3 %) and with the machine's limits; it
+    cuts a shorter path."""
     _, doc = rough
     for feed in FEEDS:
-        assert doc["time_limited_min"]["3axis"][feed] < doc["time_limited_min"]["5axis"][feed]
-        assert doc["time_min"]["3axis"][feed] == pytest.approx(
-            doc["time_min"]["5axis"][feed], rel=0.005)
+        for field in ("time_min", "time_limited_min"):
+            assert doc[field]["3axis"][feed] < doc[field]["5axis"][feed]
         s3 = doc["time_breakdown"]["3axis"][feed]
         s5 = doc["time_breakdown"]["5axis"][feed]
         assert s3["feed"]["length_mm"] <= s5["feed"]["length_mm"]

@@ -40,3 +40,24 @@ def test_inside_points_stay_negative() -> None:
     points = np.array([[0.0, 0.0, 1.0], [19.0, 0.0, 0.0], [5.0, -18.5, -1.5]])
     distance = DesignDistance(plate.vertices, plate.faces, max_edge=0.5)(points)
     np.testing.assert_allclose(distance, [-1.0, -1.0, -0.5], atol=1e-9)
+
+
+def test_a_near_tie_at_a_vertex_takes_the_sign_of_the_aligned_face() -> None:
+    """nine_blade: beyond a blade's outlet corner the closest point is a vertex shared
+    by a fan of tiny faces nearly parallel to ``p - q`` and a large face facing ``p``;
+    ``closest_point`` put the large face 1e-9 mm farther and the fan's sign (inside)
+    won: false gouges of 4.9-9.1 mm. Here the large face lies 5e-7 mm farther (below
+    ``TIE``); the point at (0, 0, 10) is outside, 10 mm from the vertex."""
+    g = 1e-5  # the tiny face: through the origin, normal (0.99875, 0, -0.05)
+    k = 0.05 / np.sqrt(1.0 - 0.05 ** 2)
+    tiny = [[0.0, 0.0, 0.0], [-k * g, -g, -g], [-k * g, g, -g]]
+    h = -5e-7  # the large face: z = h, normal +z, its vertex under the point
+    large = [[0.0, 0.0, h], [-10.0, -5.0, h], [-10.0, 5.0, h]]
+    vertices = np.array(tiny + large)
+    faces = np.array([[0, 1, 2], [3, 5, 4]])
+    tri = vertices[faces]
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    assert normals[0] @ [0.0, 0.0, 1.0] < -0.04 and normals[1] @ [0.0, 0.0, 1.0] > 0.99
+    found = DesignDistance(vertices, faces, max_edge=4.0)(np.array([[0.0, 0.0, 10.0]]))
+    np.testing.assert_allclose(found, [10.0], atol=1e-6)
