@@ -191,14 +191,23 @@ def layer_visits(layer_steps: list[int], per_visit: int
 
     Region ``r`` has layers ``0 .. layer_steps[r]`` (0 at the shroud). Every region
     cuts ``per_visit`` layers in turn, from the shroud down; 0: all layers of a
-    region in one visit (UMR-major). E.g. ``layer_visits([2, 1], 2)`` gives
+    region in one visit (UMR-major). Consecutive visits of one region (no other
+    region between them) are one visit. E.g. ``layer_visits([2, 1], 2)`` gives
     ``[((0, 1), 0), ((0, 1), 1), ((2, 2), 0)]``.
     """
     step = per_visit if per_visit > 0 else max(layer_steps, default=0) + 1
     deepest = max(layer_steps, default=-1)
-    return [((first, min(first + step - 1, n1)), r)
-            for first in range(0, deepest + 1, step)
-            for r, n1 in enumerate(layer_steps) if first <= n1]
+    visits: list[tuple[tuple[int, int], int]] = []
+    for first in range(0, deepest + 1, step):
+        for r, n1 in enumerate(layer_steps):
+            if first > n1:
+                continue
+            last = min(first + step - 1, n1)
+            if visits and visits[-1][1] == r:
+                visits[-1] = ((visits[-1][0][0], last), r)
+            else:
+                visits.append(((first, last), r))
+    return visits
 
 
 def _joints(kins: Any, segments: list[Segment]) -> NDArray[np.float64]:

@@ -104,9 +104,10 @@ def test_upper_layers_of_every_umr_cut_first(rough: tuple[Path, dict]) -> None:
     assert len(names) > umrs
     layers = [int(n.split("_layers")[1].split("-")[0]) for n in names]
     assert layers == sorted(layers) and layers[0] == 0
-    for name in names:
+    for name in names[:-1]:  # the last UMR's deepest layers may form one visit
         first, last = name.removesuffix(".apt").split("_layers")[1].split("-")
         assert first == last
+    for name in names:
         segments = np.unique(np.concatenate([p.segment for p in read_apt(out / name)]))
         assert len(segments) == 9  # every passage in each program
 

@@ -43,6 +43,11 @@ def test_layer_visits_cut_every_regions_upper_layers_first() -> None:
     assert layer_visits([2, 1], 2) == [((0, 1), 0), ((0, 1), 1), ((2, 2), 0)]
     # 0: every region's layers in one visit (UMR-major)
     assert layer_visits([2, 1], 0) == [((0, 2), 0), ((0, 1), 1)]
+    # a region's consecutive visits merge: the last layers of the deeper region, and
+    # a single region (one UMR) is cut in one visit as before
+    assert layer_visits([3, 1], 1) == [((0, 0), 0), ((0, 0), 1), ((1, 1), 0), ((1, 1), 1),
+                                       ((2, 3), 0)]
+    assert layer_visits([4], 1) == [((0, 4), 0)]
     assert layer_visits([], 1) == []
     with pytest.raises(InputError):
         RoughOptions(layers_per_visit=-1)
