@@ -2,8 +2,10 @@
 
 Writes into OUT/ (all or nothing, ``staged_directory``):
 
-* ``rough_umr<i>.apt``: one APT operation per UMR (all passages; every passage a
-  ``$$ SEGMENT/3+2,<n>`` block with its fixed axis);
+* ``rough_umr<i>_layers<k>-<k>.apt``: one APT operation per visit of a UMR (its
+  layers ``k`` in all passages; every passage a ``$$ SEGMENT/3+2,<n>`` block with
+  its fixed axis), in cut order: every UMR's layer k before any UMR's layer k + 1
+  (``layers_per_visit``; ``rough_umr<i>.apt`` when a UMR is cut in one visit);
 * ``rough.json``: UMRs (lane, axis, ``A_deg``, ``C_deg``, area), ``collisions``
   (postures, moves, index moves), ``min_allowance_mm``, ``time_min`` (``3axis`` /
   ``5axis`` by feed, nominal), ``time_limited_min`` (with the machine's limits),
@@ -30,15 +32,17 @@ from cam.roughing.baseline import five_axis_baseline
 from cam.roughing.dropcutter import DropCutter
 from cam.roughing.linking import LinkSettings
 from cam.roughing.options import FEEDS, RoughOptions
-from cam.roughing.passage import passage_grid, passage_lanes
+from cam.roughing.passage import PassageGrid, passage_grid, passage_lanes
 from cam.roughing.plan import (
     Segment,
     region_segment,
     rotate_segment,
     safe_height_of,
+    stock_map,
 )
 from cam.roughing.report import breakdown, table1_markdown
 from cam.roughing.stock import Blank
+from cam.roughing.stockmap import ZMap
 from cam.roughing.timing import block_times
 from cam.roughing.tool_size import check_tool_size
 from cam.roughing.umr import UMR, partition_passage
@@ -110,7 +114,14 @@ def design_meshes(surfaces: ImpellerSurfaces, options: RoughOptions
 
 def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
                   progress: Any = None) -> RoughResult:
-    """UMR partition and 3+2 segments of every passage, plus the 5-axis baseline."""
+    """UMR partition and 3+2 segments of every passage, plus the 5-axis baseline.
+
+    The 3+2 segments come in ``layer_visits`` order: each UMR cuts
+    ``options.layers_per_visit`` layers in every passage, then the next UMR, so a
+    UMR's shank, tilted over its neighbours' part of the passage, meets no stock the
+    neighbours' layers above would have removed (issue 8). A UMR's stock map is
+    carried over from visit to visit.
+    """
     spec = surfaces.spec
     eta = spec.finishing_allowance
     d_min = minimum_passage_width(surfaces).distance
@@ -132,6 +143,7 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
     segments: list[Segment] = []
     base0: list[Segment] = []
     floor = 0.0
+    regions: list[tuple[UMR, PassageGrid, LinkSettings, ZMap]] = []
     for lane_index, lane in enumerate(lanes):
         grid = passage_grid(surfaces, radius, eta, scallop=options.scallop_mm,
                             max_depth=depth, step_along=options.step_along_mm, lane=lane)
@@ -142,29 +154,60 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
                                       lane=lane_index)
         umrs += lane_umrs
         for umr in lane_umrs:
-            if progress is not None:
-                progress(umr.index, len(umrs), f"{lane.name}: UMR {umr.index + 1}")
             envelope = DropCutter(np.concatenate([umr.frame.triangles,
                                                   closed_tri @ umr.frame.matrix.T]),
                                   rho)
             safe = safe_height_of(umr, envelope, options.safe_distance_mm)
             settings = LinkSettings(options.clearance_mm, options.entry_height_mm,
                                     options.entry_angle_deg, safe, options.lift_mm)
-            first = region_segment(umr, grid, blank, closed_tri, radius, settings, safe,
-                                   options.direct_link_mm, tool.stickout - radius, segments)
-            if len(first.tip):
-                segments.append(first)
+            regions.append((umr, grid, settings,
+                            stock_map(umr.frame, grid, closed_tri, radius)))
         base_links = LinkSettings(options.clearance_mm, options.entry_height_mm,
                                   options.entry_angle_deg, np.inf, options.lift_mm)
         base = five_axis_baseline(grid, blank, tool, eta, base_links, options.direct_link_mm,
                                   triangles, rho)
         base.notes["lane"] = float(lane_index)
         base0.append(base)
-    # UMR-major order: each UMR (one A, C) over every passage, then the next UMR
+    visits = layer_visits([g.n1 for _, g, _, _ in regions], options.layers_per_visit)
+    for done, (span, r) in enumerate(visits):
+        umr, grid, settings, zmap = regions[r]
+        if progress is not None:
+            progress(done, len(visits), f"UMR {umr.index + 1}: layers {span[0]}-{span[1]}")
+        piece = region_segment(umr, grid, blank, closed_tri, radius, settings,
+                               settings.safe_height, options.direct_link_mm,
+                               tool.stickout - radius, segments, span, zmap)
+        if len(piece.tip):
+            segments.append(piece)
+    # each visit (one UMR: one A, C; some layers) over every passage, then the next
     segments = [rotate_segment(s, p, spec.pitch) for s in segments for p in range(n_pass)]
     baseline = [rotate_segment(b, p, spec.pitch) for p in range(n_pass) for b in base0]
     return RoughResult(tool, options, umrs, segments, baseline, floor,
                        r_max, d_min, meshes)
+
+
+def layer_visits(layer_steps: list[int], per_visit: int
+                 ) -> list[tuple[tuple[int, int], int]]:
+    """Cut order of the regions' layers: ``((first, last), region)`` per visit.
+
+    Region ``r`` has layers ``0 .. layer_steps[r]`` (0 at the shroud). Every region
+    cuts ``per_visit`` layers in turn, from the shroud down; 0: all layers of a
+    region in one visit (UMR-major). Consecutive visits of one region (no other
+    region between them) are one visit. E.g. ``layer_visits([2, 1], 2)`` gives
+    ``[((0, 1), 0), ((0, 1), 1), ((2, 2), 0)]``.
+    """
+    step = per_visit if per_visit > 0 else max(layer_steps, default=0) + 1
+    deepest = max(layer_steps, default=-1)
+    visits: list[tuple[tuple[int, int], int]] = []
+    for first in range(0, deepest + 1, step):
+        for r, n1 in enumerate(layer_steps):
+            if first > n1:
+                continue
+            last = min(first + step - 1, n1)
+            if visits and visits[-1][1] == r:
+                visits[-1] = ((visits[-1][0][0], last), r)
+            else:
+                visits.append(((first, last), r))
+    return visits
 
 
 def _joints(kins: Any, segments: list[Segment]) -> NDArray[np.float64]:
@@ -201,14 +244,23 @@ def _times(result: RoughResult, machine: Any, kins: Any, segments: list[Segment]
 
 
 def toolpaths(result: RoughResult) -> list[Toolpath]:
-    """One ``Toolpath`` per UMR (all passages, one 3+2 segment each)."""
+    """One ``Toolpath`` per visit of a UMR (its layers in all passages, one 3+2
+    segment each), in cut order."""
     tool = result.tool
     feed = float(tool.feed) if tool.feed else 1000.0
     out = []
-    for umr in result.umrs:
-        mine = [s for s in result.segments if s.umr == umr.index]
-        if not mine:
-            continue
+    groups: list[list[Segment]] = []
+    for s in result.segments:  # consecutive segments of one visit (all its passages)
+        if groups and (groups[-1][0].umr, groups[-1][0].layers) == (s.umr, s.layers):
+            groups[-1].append(s)
+        else:
+            groups.append([s])
+    split = len(groups) > len({s.umr for s in result.segments})
+    for mine in groups:
+        umr = result.umrs[mine[0].umr]
+        first, last = mine[0].layers
+        name = (f"rough_umr{umr.index + 1}_layers{first}-{last}" if split
+                else f"rough_umr{umr.index + 1}")
         kind = np.concatenate([s.kind for s in mine])
         seg = np.concatenate([np.full(len(s.tip), umr.index * 1000 + s.passage)
                               for s in mine])
@@ -217,7 +269,7 @@ def toolpaths(result: RoughResult) -> list[Toolpath]:
                               feed * result.options.plunge_feed_ratio, feed))
         out.append(Toolpath(np.concatenate([s.tip for s in mine]),
                             np.concatenate([s.axis for s in mine]), f, kind, seg,
-                            name=f"rough_umr{umr.index + 1}", tool_number=tool.number,
+                            name=name, tool_number=tool.number,
                             cutter=Cutter(tool.diameter, tool.corner_radius, tool.flute_length),
                             spindle_rpm=tool.spindle_rpm))
     return out

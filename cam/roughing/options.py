@@ -62,6 +62,13 @@ class RoughOptions:
         (checked with the drop-cutter) instead of retract / rapid / entry.
     passages : int
         Passages to cut (0: all).
+    layers_per_visit : int
+        Order of the 3+2 cuts: every UMR cuts this many consecutive layers (from the
+        shroud down) in every passage, then the next UMR takes its turn, until the
+        hub layer; 0 cuts all layers of a UMR before the next one (UMR-major). The
+        tilted shank of one UMR reaches over the neighbouring UMR's part of the
+        passage, so that part must be cut down to about the same layer first
+        (docs/roughing.md, "Cut order").
     """
 
     scallop_mm: float = 0.5
@@ -81,6 +88,7 @@ class RoughOptions:
     design: str = "solid"
     tessellation_mm: float = 0.05
     lift_mm: float = 1.0
+    layers_per_visit: int = 1
 
     def __post_init__(self) -> None:
         positive = ("scallop_mm", "step_along_mm", "mesh_spacing_mm", "reach_tolerance_mm",
@@ -103,6 +111,10 @@ class RoughOptions:
         if self.design not in ("solid", "surfaces"):
             raise InputError("unknown design mesh source", field="design", value=self.design,
                              accepted="solid, surfaces")
+        if not (isinstance(self.layers_per_visit, int) and self.layers_per_visit >= 0):
+            raise InputError("layers per visit must be a whole number >= 0",
+                             field="layers_per_visit", value=self.layers_per_visit,
+                             accepted="0 (all layers, UMR-major) or a count")
         if not (isinstance(self.passages, int) and self.passages >= 0):
             raise InputError("passages must be a whole number >= 0", field="passages",
                              value=self.passages, accepted="0 (all) or a count")

@@ -4,7 +4,9 @@
 result about +Z for the other passages. Here:
 
 * **3+2 region** (``region_segment``): each UMR cuts the stations of its u-range in
-  every layer (eq. 2) and pass (eq. 9), zigzag, in the UMR frame (axis = +Z). A CL
+  the layers of one visit (eq. 2; ``command.layer_visits``: every UMR's upper layers
+  before any UMR's lower ones) and every pass (eq. 9), zigzag, in the UMR frame
+  (axis = +Z). A CL
   point is the target's XY with the height ``max(target, drop)``, the drop-cutter
   height being the lowest ball position (radius R + eta) along the axis touching no
   design triangle. A point is cut only where material is: its ball meets the blank,
@@ -60,6 +62,8 @@ class Segment:
 
     ``kind`` is the ``MoveKind`` of the move ending at each pose; ``axis`` is constant
     for a 3+2 segment. ``notes`` counts links (``direct``, ``full``) and refinements.
+    ``layers``: the first and last layer a 3+2 segment cuts (its UMR's visit of those
+    layers, ``command.layer_visits``).
     """
 
     tip: NDArray[np.float64]
@@ -72,6 +76,7 @@ class Segment:
     plunges: int = 0
     cut_points: int = 0
     notes: dict[str, float] = field(default_factory=dict)
+    layers: tuple[int, int] = (0, -1)
 
 
 def layer_order(n_layers: int, n_passes: int, n_stations: int) -> list[NDArray[np.int64]]:
@@ -108,14 +113,18 @@ def direct_kind(a: NDArray[np.float64], b: NDArray[np.float64],
 def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: NDArray[np.float64],
                    radius: float, settings: LinkSettings, safe_height: float,
                    direct_link: float, reach: float = 0.0,
-                   prior: list[Segment] | None = None) -> Segment:
+                   prior: list[Segment] | None = None, layers: tuple[int, int] | None = None,
+                   stock: ZMap | None = None) -> Segment:
     """The 3+2 poses of one UMR in passage 0 (see module docstring).
 
     ``blank_triangles`` ``(m, 3, 3)``: the blank's closed boundary in W
     (``Blank.closed_mesh``), the stock map's top. ``prior``: the segments of passage 0
     cut before this one; with ``reach`` (the tool's cylinder above the ball centre,
     mm) > 0 their cuts and this region's runs form a ``SweptStock`` that can start a
-    plunge lower than the region's own stock map knows.
+    plunge lower than the region's own stock map knows. ``layers``: the first and
+    last layer (inclusive) cut by this segment (default all); ``stock``: the region's
+    stock map carried over from its segments of the layers above (default a fresh
+    one; it is updated in place).
     """
     frame = umr.frame
     first_station, last_station = umr.stations
@@ -132,9 +141,12 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
     repeated = np.zeros_like(clamped)
     repeated[1:] = clamped[1:] & clamped[:-1] & (z[1:] > z[:-1] - 0.25 * depth)
     shadow = lift > depth
+    band = np.zeros(len(z), dtype=bool)
+    band[slice(None) if layers is None else slice(layers[0], layers[1] + 1)] = True
+    material &= band[:, None, None]
     keep = material & ~repeated & ~shadow
     (runs,) = cutting_runs(keep, local)
-    stock = stock_map(frame, grid, blank_triangles, radius)
+    zmap = stock_map(frame, grid, blank_triangles, radius) if stock is None else stock
     swept = None
     if reach > 0.0:
         before = [_cut_chains(p.tip + radius * p.axis, p.axis, p.kind) for p in prior or []]
@@ -150,7 +162,7 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
         """Frame height down to which the swept stock says a plunge is in air."""
         if swept is None:
             return None
-        top = float(max(stock.air_height(start[None])[0], start[2])) + settings.entry_height
+        top = float(max(zmap.air_height(start[None])[0], start[2])) + settings.entry_height
         if not np.isfinite(top):
             return None
         t = swept.approach(frame.to_world(start), frame.axis, top - float(start[2]), index)
@@ -168,7 +180,7 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
                                    np.concatenate([[MoveKind.RAPID], kind]).astype(np.int8),
                                    frame.cutter)
         counts["refined"] += added
-        stock.sweep_moves(c, k)
+        zmap.sweep_moves(c, k)
         centres.append(c[1:])
         kinds.append(k[1:])
         last = c[-1]
@@ -176,7 +188,7 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
     for index, run in enumerate(runs):
         direction = run[1] - run[0] if len(run) > 1 else None
         if index == 0:
-            entry, entry_kind, ramped = entry_moves(run[0], direction, frame.cutter, stock,
+            entry, entry_kind, ramped = entry_moves(run[0], direction, frame.cutter, zmap,
                                                     settings, lowest(index, run[0]))
             top = entry[0].copy()
             top[2] = safe_height
@@ -189,7 +201,7 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
             kind = np.array([direct_kind(last, run[0], up)], np.int8)
             counts["direct"] += 1
         else:
-            piece, kind, ramped = link_runs(last, run[0], direction, frame.cutter, stock,
+            piece, kind, ramped = link_runs(last, run[0], direction, frame.cutter, zmap,
                                             settings, lowest(index, run[0]))
             counts["full"] += 1
             counts["ramps" if ramped else "plunges"] += 1
@@ -213,7 +225,8 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
              "refined": float(counts["refined"]), "runs": float(len(runs)),
              "shadow_points": float((material & shadow).sum())}
     return Segment(tip, axis, kind, True, umr.index, 0, counts["ramps"], counts["plunges"],
-                   int(keep.sum()), notes)
+                   int(keep.sum()), notes,
+                   (0, len(z) - 1) if layers is None else (layers[0], layers[1]))
 
 
 def _cut_chains(centres: NDArray[np.float64], axes: NDArray[np.float64],
@@ -251,7 +264,7 @@ def rotate_segment(segment: Segment, passage: int, pitch: float) -> Segment:
     angle = passage * pitch
     return Segment(rotate_z(segment.tip, angle), rotate_z(segment.axis, angle),
                    segment.kind.copy(), segment.fixed, segment.umr, passage, segment.ramps,
-                   segment.plunges, segment.cut_points, dict(segment.notes))
+                   segment.plunges, segment.cut_points, dict(segment.notes), segment.layers)
 
 
 def clear_distance(point: NDArray[np.float64], axis: NDArray[np.float64], blank: Blank,

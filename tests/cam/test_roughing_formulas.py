@@ -9,6 +9,7 @@ import pytest
 
 from cam.roughing.dropcutter import DropCutter, frame_to_z
 from cam.roughing.layers import layer_axes, layer_count, layer_fractions, layer_points
+from cam.roughing.options import RoughOptions
 from cam.roughing.passes import (
     interpolated_pass,
     linear_passes,
@@ -30,6 +31,26 @@ def test_eq1_tool_size_refuses_large_ball_with_numbers() -> None:
     with pytest.raises(InputError) as err:
         check_tool_size(tool, 12.0, 0.5, 1.2)  # r_max = 11 / 2.4 = 4.583 mm
     assert "4.583" in str(err.value) and "12.000" in str(err.value)
+
+
+def test_layer_visits_cut_every_regions_upper_layers_first() -> None:
+    from cam.roughing.command import layer_visits
+
+    # regions with layers 0..2 and 0..1, one layer per visit: layer-major
+    assert layer_visits([2, 1], 1) == [((0, 0), 0), ((0, 0), 1), ((1, 1), 0), ((1, 1), 1),
+                                       ((2, 2), 0)]
+    # two layers per visit; the last visit of a region stops at its hub layer
+    assert layer_visits([2, 1], 2) == [((0, 1), 0), ((0, 1), 1), ((2, 2), 0)]
+    # 0: every region's layers in one visit (UMR-major)
+    assert layer_visits([2, 1], 0) == [((0, 2), 0), ((0, 1), 1)]
+    # a region's consecutive visits merge: the last layers of the deeper region, and
+    # a single region (one UMR) is cut in one visit as before
+    assert layer_visits([3, 1], 1) == [((0, 0), 0), ((0, 0), 1), ((1, 1), 0), ((1, 1), 1),
+                                       ((2, 3), 0)]
+    assert layer_visits([4], 1) == [((0, 4), 0)]
+    assert layer_visits([], 1) == []
+    with pytest.raises(InputError):
+        RoughOptions(layers_per_visit=-1)
 
 
 def test_stepover_and_pass_count() -> None:
