@@ -3,12 +3,13 @@
 Rebuilt from the finished programs of passage 0 (the other passages are rotations of
 it about the blank's axis), independent of the link planner's own bookkeeping:
 
-* **3+2 segment** (``fixed_axis_rapids``): replayed in order through a fresh
-  ``stockmap.ZMap`` of the UMR's frame (the blank, then every cutting move swept as
-  it comes); a rapid sample is in air when its ball is above the map's air height
-  (0.05 mm tolerance: the map's node spacing), or, failing that, when the
-  ``sweptstock.SweptStock`` of the segments cut before and of this segment's
-  cutting chains before the rapid says so (cuts of earlier UMRs);
+* **3+2 segment** (``fixed_axis_rapids``): replayed in order through a
+  ``stockmap.ZMap`` of the UMR's frame (the blank, then every cutting move of the
+  UMR's visits swept as it comes, one map per UMR); a rapid sample is in air when
+  its ball is above the map's air height (0.05 mm tolerance: the map's node
+  spacing), or, failing that, when the ``sweptstock.SweptStock`` of the segments cut
+  before and of this segment's cutting chains before the rapid says so (cuts of
+  other UMRs);
 * **five-axis segment** (``five_axis_rapids``): the ``SweptStock`` of its own
   cutting chains (ball and tool cylinder along the varying axis).
 
@@ -71,21 +72,31 @@ def five_axis_rapids(segment: Segment, blank: Blank, radius: float, reach: float
     return len(bad), int(np.sum(segment.kind[1:] == MoveKind.RAPID))
 
 
+def umr_zmap(segments: list[Segment], umr: UMR, blank_triangles: NDArray[np.float64],
+             radius: float, margin: float = 40.0) -> ZMap:
+    """A fresh Z-map of the blank in ``umr``'s frame over the XY extent of ``segments``
+    (ball centres) plus ``margin`` mm."""
+    frame = umr.frame
+    local = frame.to_frame(np.concatenate([s.tip + radius * s.axis for s in segments]))
+    lo = local[:, :2].min(axis=0) - margin
+    hi = local[:, :2].max(axis=0) + margin
+    return ZMap(lo, hi, blank_triangles @ frame.matrix.T, radius)
+
+
 def fixed_axis_rapids(segment: Segment, umr: UMR, prior: list[Segment], blank: Blank,
                       blank_triangles: NDArray[np.float64], radius: float, reach: float,
-                      margin: float = 40.0) -> tuple[int, int, float]:
+                      zmap: ZMap | None = None) -> tuple[int, int, float]:
     """Rapid moves of a 3+2 segment with a sample in stock (see module docstring).
 
+    ``zmap``: the UMR's Z-map with its earlier visits' cuts already swept in (it is
+    swept with this segment's cuts too); default a fresh one of the blank.
     Returns the bad moves, the rapid moves checked and the deepest intrusion into the
     Z-map's stock of a rapid sample that the swept-stock test had to clear, mm.
     """
     frame = umr.frame
-    c_w = segment.tip + radius * segment.axis
-    local = frame.to_frame(c_w)
-    xy = local[:, 2] < np.inf
-    lo = local[xy, :2].min(axis=0) - margin
-    hi = local[xy, :2].max(axis=0) + margin
-    zmap = ZMap(lo, hi, blank_triangles @ frame.matrix.T, radius)
+    local = frame.to_frame(segment.tip + radius * segment.axis)
+    if zmap is None:
+        zmap = umr_zmap([segment], umr, blank_triangles, radius)
     runs, axes, starts = cut_chains(segment, radius)
     old_r: list[NDArray[np.float64]] = []
     old_a: list[NDArray[np.float64]] = []
@@ -129,13 +140,15 @@ def rapid_checks(segments: list[Segment], baseline: list[Segment], umrs: list[UM
     ``reach``: the tool's cylinder above the ball centre (stick-out - R), mm.
     """
     by_index = {u.index: u for u in umrs}
+    first = [s for s in segments if s.passage == 0]
+    # one Z-map per UMR, carried over its visits (as the planner's)
+    maps = {u: umr_zmap([s for s in first if s.umr == u], by_index[u], blank_triangles,
+                        radius) for u in {s.umr for s in first}}
     done: list[Segment] = []
     bad3 = moves3 = 0
-    for s in segments:
-        if s.passage != 0:
-            continue
+    for s in first:
         bad, n, _ = fixed_axis_rapids(s, by_index[s.umr], done, blank, blank_triangles,
-                                      radius, reach)
+                                      radius, reach, maps[s.umr])
         bad3, moves3 = bad3 + bad, moves3 + n
         done.append(s)
     bad5 = moves5 = 0
