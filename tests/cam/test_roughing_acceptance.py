@@ -156,9 +156,10 @@ def test_allowance_against_independent_stl(rough: tuple[Path, dict], tmp_path: P
 
 
 @pytest.mark.xfail(strict=True, reason="measured: with both programs linked alike and the "
-                   "baseline valid, the 3+2 UMR total is 7.5-10.5 % longer (nominal; layer-major cut order) than the "
-                   "simultaneous 5-axis baseline on this fixture and machine (see "
-                   "test_time_comparison_as_measured and docs/roughing.md)")
+                   "baseline valid, the 3+2 UMR total is 7.5-10.5 % longer (nominal; "
+                   "layer-major cut order) than the simultaneous 5-axis baseline on this "
+                   "fixture and machine (see test_time_comparison_as_measured and "
+                   "docs/roughing.md)")
 def test_three_axis_faster_than_five_axis(rough: tuple[Path, dict]) -> None:
     _, doc = rough
     for feed in FEEDS:
