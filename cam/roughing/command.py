@@ -35,6 +35,7 @@ from cam.roughing.options import FEEDS, RoughOptions
 from cam.roughing.passage import PassageGrid, passage_grid, passage_lanes
 from cam.roughing.plan import (
     Segment,
+    layer_visits,
     region_segment,
     rotate_segment,
     safe_height_of,
@@ -183,31 +184,6 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
     baseline = [rotate_segment(b, p, spec.pitch) for p in range(n_pass) for b in base0]
     return RoughResult(tool, options, umrs, segments, baseline, floor,
                        r_max, d_min, meshes)
-
-
-def layer_visits(layer_steps: list[int], per_visit: int
-                 ) -> list[tuple[tuple[int, int], int]]:
-    """Cut order of the regions' layers: ``((first, last), region)`` per visit.
-
-    Region ``r`` has layers ``0 .. layer_steps[r]`` (0 at the shroud). Every region
-    cuts ``per_visit`` layers in turn, from the shroud down; 0: all layers of a
-    region in one visit (UMR-major). Consecutive visits of one region (no other
-    region between them) are one visit. E.g. ``layer_visits([2, 1], 2)`` gives
-    ``[((0, 1), 0), ((0, 1), 1), ((2, 2), 0)]``.
-    """
-    step = per_visit if per_visit > 0 else max(layer_steps, default=0) + 1
-    deepest = max(layer_steps, default=-1)
-    visits: list[tuple[tuple[int, int], int]] = []
-    for first in range(0, deepest + 1, step):
-        for r, n1 in enumerate(layer_steps):
-            if first > n1:
-                continue
-            last = min(first + step - 1, n1)
-            if visits and visits[-1][1] == r:
-                visits[-1] = ((visits[-1][0][0], last), r)
-            else:
-                visits.append(((first, last), r))
-    return visits
 
 
 def _joints(kins: Any, segments: list[Segment]) -> NDArray[np.float64]:

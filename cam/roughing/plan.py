@@ -4,7 +4,7 @@
 result about +Z for the other passages. Here:
 
 * **3+2 region** (``region_segment``): each UMR cuts the stations of its u-range in
-  the layers of one visit (eq. 2; ``command.layer_visits``: every UMR's upper layers
+  the layers of one visit (eq. 2; ``layer_visits``: every UMR's upper layers
   before any UMR's lower ones) and every pass (eq. 9), zigzag, in the UMR frame
   (axis = +Z). A CL
   point is the target's XY with the height ``max(target, drop)``, the drop-cutter
@@ -49,7 +49,8 @@ from cam.roughing.umr import UMR, FixedAxisFrame
 from postproc.toolpath import MoveKind
 
 __all__ = [
-    "Segment", "clear_distance", "cutting_runs", "direct_kind", "region_segment",
+    "Segment", "clear_distance", "cutting_runs", "direct_kind", "layer_visits",
+    "region_segment",
     "rotate_segment", "safe_height_of", "stock_map",
 ]
 
@@ -63,7 +64,7 @@ class Segment:
     ``kind`` is the ``MoveKind`` of the move ending at each pose; ``axis`` is constant
     for a 3+2 segment. ``notes`` counts links (``direct``, ``full``) and refinements.
     ``layers``: the first and last layer a 3+2 segment cuts (its UMR's visit of those
-    layers, ``command.layer_visits``).
+    layers, ``layer_visits``).
     """
 
     tip: NDArray[np.float64]
@@ -102,6 +103,31 @@ def cutting_runs(keep: NDArray[np.bool_], *fields_: NDArray[np.float64]
             flat = values[k].reshape(-1, 3)[order]
             out[f] += [flat[a:b] for a, b in zip(edges[::2], edges[1::2], strict=True)]
     return out
+
+
+def layer_visits(layer_steps: list[int], per_visit: int
+                 ) -> list[tuple[tuple[int, int], int]]:
+    """Cut order of the regions' layers: ``((first, last), region)`` per visit.
+
+    Region ``r`` has layers ``0 .. layer_steps[r]`` (0 at the shroud). Every region
+    cuts ``per_visit`` layers in turn, from the shroud down; 0: all layers of a
+    region in one visit (UMR-major). Consecutive visits of one region (no other
+    region between them) are one visit. E.g. ``layer_visits([2, 1], 2)`` gives
+    ``[((0, 1), 0), ((0, 1), 1), ((2, 2), 0)]``.
+    """
+    step = per_visit if per_visit > 0 else max(layer_steps, default=0) + 1
+    deepest = max(layer_steps, default=-1)
+    visits: list[tuple[tuple[int, int], int]] = []
+    for first in range(0, deepest + 1, step):
+        for r, n1 in enumerate(layer_steps):
+            if first > n1:
+                continue
+            last = min(first + step - 1, n1)
+            if visits and visits[-1][1] == r:
+                visits[-1] = ((visits[-1][0][0], last), r)
+            else:
+                visits.append(((first, last), r))
+    return visits
 
 
 def direct_kind(a: NDArray[np.float64], b: NDArray[np.float64],

@@ -62,18 +62,22 @@ def rough_stage(ctx: Context) -> None:
               progress=False, **ctx.settings.rough)
 
 
+def rough_allowance(ctx: Context) -> float:
+    """Material roughing is meant to leave on the faces it mills, mm: the finishing
+    allowance eta plus the roughing scallop height (rough.json)."""
+    rough = read_json(ctx, "rough/rough.json", "rough")
+    return float(rough["finishing_allowance_mm"]) + float(rough["options"]["scallop_mm"])
+
+
 def roughed_stock(ctx: Context) -> float:
     """Largest material the roughing is meant to leave on the part, mm.
 
-    The milled faces keep the finishing allowance eta plus the roughing scallop height
-    (rough.json); faces roughing does not reach keep the blank's stock allowance over
-    the shroud envelope (the spec). The larger of the two.
+    The milled faces keep ``rough_allowance``; faces roughing does not reach keep the
+    blank's stock allowance over the shroud envelope (the spec). The larger of the two.
     """
     from geometry.spec import load_spec
 
-    rough = read_json(ctx, "rough/rough.json", "rough")
-    milled = float(rough["finishing_allowance_mm"]) + float(rough["options"]["scallop_mm"])
-    return max(milled, float(load_spec(ctx.spec).stock_allowance))
+    return max(rough_allowance(ctx), float(load_spec(ctx.spec).stock_allowance))
 
 
 def finish_options(ctx: Context) -> dict[str, Any]:

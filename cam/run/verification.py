@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from cam.run.regions import LabelledDesign, region_summary
-from cam.run.stages import Context, nc_programs
+from cam.run.stages import Context, nc_programs, read_json, rough_allowance
 from impeller_cam.atomic import replace_path, write_text_atomic
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
 
@@ -51,15 +51,11 @@ def _staged_folder(folder: Path) -> Iterator[Path]:
 def allowances(ctx: Context) -> dict[str, float]:
     """Material meant to remain after roughing and after finishing, mm.
 
-    Rough: the spec's finishing allowance plus the roughing scallop height;
-    finish: the finishing scallop height (options as run, from rough.json/finish.json).
+    Rough: ``stages.rough_allowance`` (eta plus the roughing scallop height); finish:
+    the finishing scallop height (options as run, finish.json).
     """
-    from geometry.spec import load_spec
-
-    eta = load_spec(ctx.spec).finishing_allowance
-    rough = json.loads((ctx.out / "rough" / "rough.json").read_text())["options"]
-    finish = json.loads((ctx.out / "finish" / "finish.json").read_text())["options"]
-    return {"rough": eta + float(rough["scallop_mm"]), "finish": float(finish["scallop_mm"])}
+    finish = read_json(ctx, "finish/finish.json", "finish")["options"]
+    return {"rough": rough_allowance(ctx), "finish": float(finish["scallop_mm"])}
 
 
 def _relocate(folder: Path, stock: str) -> None:

@@ -34,7 +34,7 @@ def test_eq1_tool_size_refuses_large_ball_with_numbers() -> None:
 
 
 def test_layer_visits_cut_every_regions_upper_layers_first() -> None:
-    from cam.roughing.command import layer_visits
+    from cam.roughing.plan import layer_visits
 
     # regions with layers 0..2 and 0..1, one layer per visit: layer-major
     assert layer_visits([2, 1], 1) == [((0, 0), 0), ((0, 0), 1), ((1, 1), 0), ((1, 1), 1),
