@@ -11,7 +11,11 @@ up- or downstream with the blade angle; on the small fixture the suction-side ba
 ends 2.1 mm upstream of the trailing edge on the hub, the pressure-side one 1.7 mm
 beyond it), and stopping the passes at the shorter one left a strip of roughing stock
 on the hub along the trailing edge. Beyond a junction path's end its ``phi`` is
-extended linearly.
+extended linearly, and the junction itself goes on along the hub (``lambda`` = 0 or
+1, paths ``<...>.hub.00.le`` / ``.te`` and ``.<n>.le`` / ``.te``) as far as its ball
+keeps R from the wall's blade (``body_distance``): without it the strip between the
+last pass and the wall kept 2.2 mm of roughing stock in the small fixture's
+trailing-edge corner beside the suction side.
 
 With a splitter, the hub passes of the inlet part (between the main blades, ahead of
 the splitter) run up to the splitter junction's start and each one ends where its
@@ -51,6 +55,11 @@ _END_STEPS = 30
 #: A pass ahead of a splitter keeps the ball this much beyond R from it, mm (the
 #: model of the splitter's round leading edge follows the solid to about 0.011 mm).
 SPLITTER_MARGIN = 0.02
+#: A junction's continuation along the hub starts this far (in s) past its end.
+_S_GAP = 1e-9
+#: Largest approach of a junction's continuation to its wall's blade below R, mm
+#: (``body_distance`` reads the junction ball itself to 1e-14 mm).
+_EDGE_TOLERANCE = 1e-6
 
 
 def _unit(a: Array) -> Array:
@@ -128,6 +137,22 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
     tip_a = _interp_rows(s, sa, first.opposite_tip)
     tip_b = _interp_rows(s, sb, second.opposite_tip)
     curve_u = np.interp(s, sa, first.curve_u)
+
+    def make(name: str, s_pass: Array, lam: float) -> CutterPath:
+        phi = (1.0 - lam) * np.interp(s_pass, s, phi_a) + lam * np.interp(s_pass, s, phi_b)
+        axis = _unit(rotate_about_z((1.0 - lam) * _interp_rows(s_pass, s, axis_a)
+                                    + lam * _interp_rows(s_pass, s, axis_b), phi))
+        near_first = lam < 0.5
+        away_rows = _interp_rows(s_pass, s, away_a if near_first else away_b)
+        return CutterPath(
+            name=name, operation="hub", passage=passage,
+            centre=hub.offset(s_pass, phi, radius), normal=hub.normal(s_pass, phi),
+            reference_axis=axis, away=_unit(rotate_about_z(away_rows, phi)),
+            opposite_tip=_interp_rows(s_pass, s, tip_a if near_first else tip_b),
+            curve_u=np.interp(s_pass, s, curve_u), hub_contact=hub.point(s_pass, phi),
+            open_end=keep_clear is not None,
+        )
+
     out = []
     for k in range(1, passes):
         lam = k / passes
@@ -159,20 +184,29 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
                 s_pass = np.concatenate([s[:stop], lo_s])
                 if len(s_pass) < 2:
                     continue
-        phi = (1.0 - lam) * np.interp(s_pass, s, phi_a) + lam * np.interp(s_pass, s, phi_b)
-        centre = hub.offset(s_pass, phi, radius)
-        axis = _unit(rotate_about_z((1.0 - lam) * _interp_rows(s_pass, s, axis_a)
-                                    + lam * _interp_rows(s_pass, s, axis_b), phi))
-        near_first = lam < 0.5
-        away_rows = _interp_rows(s_pass, s, away_a if near_first else away_b)
-        out.append(CutterPath(
-            name=f"p{passage}.hub{label}.{k:02d}", operation="hub", passage=passage,
-            centre=centre, normal=hub.normal(s_pass, phi), reference_axis=axis,
-            away=_unit(rotate_about_z(away_rows, phi)),
-            opposite_tip=_interp_rows(s_pass, s, tip_a if near_first else tip_b),
-            curve_u=np.interp(s_pass, s, curve_u), hub_contact=hub.point(s_pass, phi),
-            open_end=keep_clear is not None,
-        ))
+        out.append(make(f"p{passage}.hub{label}.{k:02d}", s_pass, lam))
+    # the junction paths end at different hub positions: beyond the shorter one the
+    # strip between the last hub pass and its wall is cut by the junction's
+    # continuation along the hub (lambda = 0 or 1), as far as its ball keeps R from
+    # the wall's blade; machined before the first and after the last pass
+    for k, s_j, wall in ((0, sa, first.wall), (passes, sb, second.wall)):
+        lam = k / passes
+        edges: list[CutterPath] = []
+        for end, s_pass in (("le", np.concatenate([s[s < s_j[0] - _S_GAP], s_j[:1]])),
+                            ("te", np.concatenate([s_j[-1:], s[s > s_j[-1] + _S_GAP]]))):
+            if len(s_pass) < 2 or wall is None:
+                continue
+            phi = (1.0 - lam) * np.interp(s_pass, s, phi_a) + lam * np.interp(s_pass, s, phi_b)
+            clear = body_distance(wall.blade, hub.offset(s_pass, phi, radius)) - radius
+            ok = clear >= -_EDGE_TOLERANCE
+            # from the junction's end outwards, up to the first point too close
+            run = ok[::-1] if end == "le" else ok
+            keep = len(run) if run.all() else int(np.argmin(run))
+            if keep < 2:
+                continue
+            s_pass = s_pass[len(s_pass) - keep:] if end == "le" else s_pass[:keep]
+            edges.append(make(f"p{passage}.hub{label}.{k:02d}.{end}", s_pass, lam))
+        out = edges + out if k == 0 else out + edges
     return out
 
 

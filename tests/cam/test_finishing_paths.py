@@ -115,7 +115,8 @@ def test_passes_cover_blade_and_hub_with_the_scallop_stepover() -> None:
     ops = [p.operation for p in paths]
     assert ops[:2] == ["junction", "junction"]
     blade = [p for p in paths if p.operation == "blade"]
-    hub = [p for p in paths if p.operation == "hub"]
+    # the passes across the passage (not the junctions' continuations along the hub)
+    hub = [p for p in paths if p.operation == "hub" and not p.name.endswith((".le", ".te"))]
     assert blade and hub
     pressure = [p for p in blade if "blade0.pressure" in p.name]
     # neighbouring passes (same u) are at most one stepover apart, and the last is at the tip
@@ -213,7 +214,7 @@ def test_hub_passes_run_over_both_junction_paths_hub_ranges(name: str, radius: f
     te = surfaces.spec.hub_camber[-1]  # (r, theta, z)
     s_te = surfaces.hub.closest_s(np.array([te[2]]), np.array([te[0]]))[0]
     assert hi >= s_te  # the passes reach the trailing edge on the hub
-    hub = [p for p in paths if p.operation == "hub"]
+    hub = [p for p in paths if p.operation == "hub" and not p.name.endswith((".le", ".te"))]
     (wall_a, wall_b), = passage_walls(surfaces)
     for p in hub:
         s = hub_foot(surfaces.hub, p.centre)[0]
@@ -229,3 +230,39 @@ def test_hub_passes_run_over_both_junction_paths_hub_ranges(name: str, radius: f
             blade_distance_lsq(wall_a.blade, wall_a.side, p.centre[pick], v_max=1.0),
             blade_distance_lsq(wall_b.blade, wall_b.side, p.centre[pick], v_max=1.0))
         assert clear.min() >= radius - 1e-3, p.name
+
+
+@pytest.mark.parametrize(("name", "radius", "scallop"), [("small", 2.0, 0.8),
+                                                         ("nine_blade", 3.0, 0.2)])
+def test_junctions_continue_along_the_hub_to_the_passes_ends(name: str, radius: float,
+                                                             scallop: float) -> None:
+    """Defect: beyond the shorter junction path nothing ran next to its wall (the last
+    hub pass is a stepover away), so the small fixture's hub kept 2.2 mm of roughing
+    stock in the trailing-edge corner beside the suction side. Each junction now goes
+    on along the hub (lambda = 0 or 1) to the hub passes' ends: it starts on the
+    junction's end ball, keeps R from both walls (independent least-squares distance)
+    and the junction with its continuations spans every hub pass's range."""
+    surfaces = surfaces_of(name)
+    paths = passage_paths(surfaces, radius, 0.5, scallop_stepover(radius, scallop),
+                          blade=False)
+    (wall_a, wall_b), = passage_walls(surfaces)
+    hub = [p for p in paths if p.operation == "hub"]
+    inner = [p for p in hub if not p.name.endswith((".le", ".te"))]
+    lo = hub_foot(surfaces.hub, inner[0].centre)[0][0]
+    hi = hub_foot(surfaces.hub, inner[0].centre)[0][-1]
+    edges = [p for p in hub if p.name.endswith((".le", ".te"))]
+    assert any(p.name.endswith(".te") for p in edges)  # the junctions end apart
+    for junction in paths[:2]:
+        mine = [p for p in edges
+                if np.allclose(p.centre[0 if p.name.endswith(".te") else -1],
+                               junction.centre[-1 if p.name.endswith(".te") else 0],
+                               atol=1e-6)]
+        covered = [hub_foot(surfaces.hub, p.centre)[0][[0, -1]] for p in [junction, *mine]]
+        assert min(c[0] for c in covered) == pytest.approx(lo, abs=1e-6), junction.name
+        assert max(c[1] for c in covered) == pytest.approx(hi, abs=1e-6), junction.name
+    for p in edges:
+        clear = np.minimum(
+            blade_distance_lsq(wall_a.blade, wall_a.side, p.centre, v_max=1.0),
+            blade_distance_lsq(wall_b.blade, wall_b.side, p.centre, v_max=1.0))
+        assert clear.min() >= radius - 1e-3, p.name
+        assert hub_distance_dense(surfaces, p.centre) == pytest.approx(radius, abs=1e-3)

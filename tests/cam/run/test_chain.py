@@ -147,11 +147,6 @@ def test_finished_blades_and_hub_mostly_within_allowance_and_scallop(chain_small
         0.3 + CHAIN_SETTINGS["rough"]["scallop_mm"])
 
 
-@pytest.mark.xfail(strict=True, reason="open defect (issue 8): the hub keeps up to 2.2 mm "
-                   "of roughing stock in the corner beside the suction side near the "
-                   "trailing edge (samples 3-4.5 mm from the blade's trailing-edge root), "
-                   "where the suction-side junction ball ends 2.1 mm of hub meridian "
-                   "upstream of the trailing edge")
 def test_finished_blades_and_hub_entirely_within_allowance_and_scallop(chain_small: Path
                                                                        ) -> None:
     finish = load(chain_small, "verify/regions.json")["finish"]
