@@ -8,6 +8,7 @@ from ``geometry``) or a closed mesh.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -22,12 +23,26 @@ STOCK_ACCEPTED = (
 )
 
 
+def _offset(contour: NDArray[np.float64], allowance: float
+            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(r, z) of a meridional contour (k, 2) of (z, r) offset by ``allowance`` along
+    its normal, outwards (away from the impeller's material: larger r and z)."""
+    r, z = contour[:, 1], contour[:, 0]
+    dr, dz = np.gradient(r), np.gradient(z)
+    length = np.hypot(dr, dz)
+    nr, nz = -dz / length, dr / length
+    flip = (nr + nz) < 0
+    nr[flip], nz[flip] = -nr[flip], -nz[flip]
+    return r + allowance * nr, z + allowance * nz
+
+
 def blank_profile(
     shroud_contour: NDArray[np.float64],
     allowance: float,
     bore_radius: float,
     hub_contour: NDArray[np.float64] | None = None,
     blade_top: float | None = None,
+    blade_radius: float | None = None,
 ) -> NDArray[np.float64]:
     """Meridional polygon (k, 2) of (r, z), mm, of the lathe-turned blank.
 
@@ -42,16 +57,15 @@ def blank_profile(
     (``blade_top``: highest z of the blades, mm, e.g. of their camber lines), and
     where the hub nose stands above that face, the nose turned to its final contour
     (no allowance: no milling operation reaches it, and a cutter's shank passing over
-    the inlet must not meet stock that the design does not have).
+    the inlet must not meet stock that the design does not have). With ``blade_radius``
+    (largest radius of the blades, mm) the outlet is turned too: beyond
+    ``blade_radius + allowance`` nothing stands in the way of a lathe tool, so the
+    blank there is the hub contour offset by the allowance (out to the rim), not a
+    ring of stock up to the shroud's outlet height around the blades' trailing edges.
     """
     contour = np.asarray(shroud_contour, dtype=np.float64)
-    r, z = contour[:, 1], contour[:, 0]
-    dr, dz = np.gradient(r), np.gradient(z)
-    length = np.hypot(dr, dz)
-    nr, nz = -dz / length, dr / length  # outward: away from the hub (larger r and z)
-    flip = (nr + nz) < 0
-    nr[flip], nz[flip] = -nr[flip], -nz[flip]
-    off_r, off_z = r + allowance * nr, z + allowance * nz
+    r = contour[:, 1]
+    off_r, off_z = _offset(contour, allowance)
     both = contour if hub_contour is None else np.vstack([contour, hub_contour])
     r_max = float(both[:, 1].max()) + allowance
     order = np.arange(len(r))[::-1]  # outlet first, then along the contour to the inlet
@@ -64,8 +78,20 @@ def blank_profile(
     hub = np.asarray(hub_contour, dtype=np.float64)
     top = -np.inf if blade_top is None else blade_top + allowance
     face = max(float(off_z[order[-1]]), top)
-    pts = [(bore_radius, 0.0), (r_max, 0.0), (r_max, float(off_z[order[0]]))]
-    pts += [(float(off_r[i]), float(min(off_z[i], face))) for i in order]
+    pts = [(bore_radius, 0.0), (r_max, 0.0)]
+    r_cut = math.inf if blade_radius is None else blade_radius + allowance
+    if r_cut < r_max - 1e-9:
+        hub_r, hub_z = _offset(hub, allowance)
+        outer = np.argsort(-hub_r)  # outlet first
+        outer = outer[hub_r[outer] > r_cut]
+        by_r = np.argsort(hub_r)
+        z_cut = float(np.interp(r_cut, hub_r[by_r], hub_z[by_r]))
+        pts.append((r_max, float(hub_z[outer[0]]) if len(outer) else z_cut))
+        pts += [(float(hub_r[i]), float(hub_z[i])) for i in outer if hub_r[i] < r_max]
+        pts += [(r_cut, z_cut), (r_cut, float(off_z[order[0]]))]
+    else:
+        pts.append((r_max, float(off_z[order[0]])))
+    pts += [(float(off_r[i]), float(min(off_z[i], face))) for i in order if off_r[i] <= r_cut]
     pts.append((float(off_r[order[-1]]), face))
     above = hub[:, 0] > face  # the nose above the inlet face, z descending from the nose
     if above.any():
@@ -131,8 +157,9 @@ def load_stock(argument: str, resolution: float) -> Stock:
 
         spec = load_spec(path)
         blade_top = float(max(spec.hub_camber[:, 2].max(), spec.shroud_camber[:, 2].max()))
+        blade_radius = float(max(spec.hub_camber[:, 0].max(), spec.shroud_camber[:, 0].max()))
         profile = blank_profile(spec.shroud_contour, spec.stock_allowance, spec.bore_radius,
-                                spec.hub_contour, blade_top)
+                                spec.hub_contour, blade_top, blade_radius)
         return Stock.revolved(profile, resolution)
     if suffix in MESH_SUFFIXES:
         vertices, faces = _load_mesh(path, "--stock")

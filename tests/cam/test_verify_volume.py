@@ -260,3 +260,72 @@ def test_signed_distance_of_a_box() -> None:
     points = np.array([[0, 0, 6.0], [0, 0, 4.5], [7, 0, 0], [0, -5.2, 1], [6, 6, 0]])
     expected = [1.0, -0.5, 2.0, 0.2, math.sqrt(2.0)]
     assert distance(points) == pytest.approx(expected, abs=1e-9)
+
+
+def test_ray_parity_inside_of_a_box_and_a_sphere() -> None:
+    """Closed-form insides: the box exactly, the sphere away from its facets' chord."""
+    import trimesh
+
+    from cam.verify.inside import MeshParity
+
+    rng = np.random.default_rng(7)
+    points = rng.uniform(-7.0, 7.0, size=(20000, 3))
+    box = trimesh.creation.box(extents=[10.0, 10.0, 10.0])
+    parity = MeshParity(np.asarray(box.vertices)[np.asarray(box.faces)])
+    assert np.array_equal(parity.inside(points), np.all(np.abs(points) < 5.0, axis=1))
+    # rays through shared edges and vertices count once: points on the box's diagonals
+    diagonal = np.linspace(-6.0, 6.0, 49)[:, None] * np.array([[1.0, 1.0, 1.0]]) + 1e-3
+    assert np.array_equal(parity.inside(diagonal), np.all(np.abs(diagonal) < 5.0, axis=1))
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=5.0)
+    parity = MeshParity(np.asarray(sphere.vertices)[np.asarray(sphere.faces)])
+    radius = np.linalg.norm(points, axis=1)
+    clear = np.abs(radius - 5.0) > 0.05  # the facets' chord error is below 0.02 mm
+    assert np.array_equal(parity.inside(points[clear]), radius[clear] < 5.0)
+
+
+def test_signed_distance_sign_where_the_nearest_sheet_faces_inwards() -> None:
+    """A closed mesh with a second, inside-out shell beside the part (what a folded
+    fillet makes locally): next to that shell the nearest triangle faces inwards and
+    the closest-triangle sign alone says 'inside'; ray parity keeps it outside (the
+    rays cross the inverted shell twice or not at all)."""
+    import trimesh
+
+    from cam.verify.deviation import DesignDistance
+
+    part = trimesh.creation.box(extents=[10.0, 10.0, 10.0])
+    flap = trimesh.creation.box(extents=[2.0, 2.0, 2.0])
+    flap.apply_translation([9.0, 0.0, 0.0])
+    flap.invert()
+    mesh = trimesh.util.concatenate([part, flap])
+    distance = DesignDistance(mesh.vertices, mesh.faces, max_edge=2.0)
+    points = np.array([[10.5, 0.0, 0.0], [9.0, 0.0, 1.5], [4.0, 0.0, 0.0], [7.5, 0.0, 0.0]])
+    assert distance(points) == pytest.approx([0.5, 0.5, -1.0, 0.5], abs=1e-9)
+
+
+def test_blank_profile_turns_the_outlet_beyond_the_blades() -> None:
+    """Beyond the blades' largest radius + allowance a lathe reaches the hub: the blank
+    there is the hub contour + allowance out to the rim, not a ring of stock up to the
+    shroud's outlet height (hand-made contours as above, blades out to r = 35 mm)."""
+    from cam.verify.sources import blank_profile
+
+    shroud = np.array([[20.0, 22.0], [15.0, 22.0], [10.0, 25.0], [9.0, 35.0]])  # z, r
+    hub = np.array([[30.0, 9.0], [25.0, 9.0], [20.0, 9.0], [5.0, 18.0], [4.0, 39.0]])
+    ring = blank_profile(shroud, 1.0, 4.0, hub, blade_top=21.0)
+    turned = blank_profile(shroud, 1.0, 4.0, hub, blade_top=21.0, blade_radius=35.0)
+    assert ring[:, 0].max() == turned[:, 0].max() == pytest.approx(40.0)
+    # the ring: the outer cylinder rises to the offset shroud's outlet height
+    assert ring[2, 1] > 9.5
+    # turned: every top point beyond r = 36 and within the hub's end (r 39) lies 1 mm
+    # above the hub line z = 5 - (r - 18) / 21; the rim beyond keeps its height
+    top = turned[(turned[:, 0] > 36.0 + 1e-9) & (turned[:, 0] < 39.5) & (turned[:, 1] > 0.0)]
+    hub_z = 5.0 - (top[:, 0] - 18.0) / 21.0
+    assert len(top) >= 1
+    assert np.all(np.abs(top[:, 1] - hub_z - 1.0) < 0.01)
+    assert turned[2].tolist() == [40.0, pytest.approx(top[0, 1])]
+    # a vertical step at r = 36 from the hub offset up to the offset shroud's outlet
+    step = turned[np.isclose(turned[:, 0], 36.0)]
+    assert step[:, 1].min() == pytest.approx(5.0 - 18.0 / 21.0 + 1.0, abs=0.02)
+    assert step[:, 1].max() == pytest.approx(ring[2, 1])
+    # inside r = 36 the two blanks are the same polygon
+    inner = [p for p in ring.tolist() if p[0] <= 36.0 and p[1] > 0.0]
+    assert inner == [p for p in turned.tolist() if p[0] < 36.0 - 1e-9 and p[1] > 0.0]
