@@ -25,16 +25,23 @@ handled by rotating the mesh (``frame_to_z``) into a frame where that axis is +Z
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["DropCutter", "drop_ball", "frame_to_z"]
+__all__ = ["DropCutter", "DropSurface", "drop_ball", "frame_to_z"]
 
 #: Default edge of the XY bucket cells as a multiple of the ball radius.
 CELL_FACTOR = 0.5
 _EPS = 1e-12
+
+
+class DropSurface(Protocol):
+    """Anything that answers drop-cutter heights: ``drop(points (n, 3)) -> (n,)``."""
+
+    def drop(self, points: NDArray[np.float64]) -> NDArray[np.float64]: ...
 
 
 def frame_to_z(axis: NDArray[np.float64]) -> tuple[NDArray[np.float64], float, float]:

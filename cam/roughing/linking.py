@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from cam.roughing.dropcutter import DropCutter
+from cam.roughing.dropcutter import DropSurface
 from cam.roughing.stockmap import ZMap
 from postproc.toolpath import MoveKind
 
@@ -59,14 +59,14 @@ def _line(a: NDArray[np.float64], b: NDArray[np.float64],
     return np.asarray(a[None] + t * (b - a)[None])
 
 
-def _ceiling(points: NDArray[np.float64], design: DropCutter, stock: ZMap
+def _ceiling(points: NDArray[np.float64], design: DropSurface, stock: ZMap
              ) -> NDArray[np.float64]:
     """Lowest ball-centre height in air and off the design over ``points`` (frame)."""
     return np.asarray(np.maximum(stock.air_height(points), design.drop(points)))
 
 
 def entry_moves(start: NDArray[np.float64], direction: NDArray[np.float64] | None,
-                design: DropCutter, stock: ZMap, settings: LinkSettings,
+                design: DropSurface, stock: ZMap, settings: LinkSettings,
                 lowest: float | None = None
                 ) -> tuple[NDArray[np.float64], NDArray[np.int8], bool]:
     """The approach point and the feed entry onto ``start`` (frame coords).
@@ -116,7 +116,7 @@ def entry_moves(start: NDArray[np.float64], direction: NDArray[np.float64] | Non
 
 
 def link_runs(end: NDArray[np.float64], start: NDArray[np.float64],
-              direction: NDArray[np.float64] | None, design: DropCutter, stock: ZMap,
+              direction: NDArray[np.float64] | None, design: DropSurface, stock: ZMap,
               settings: LinkSettings, lowest: float | None = None
               ) -> tuple[NDArray[np.float64], NDArray[np.int8], bool]:
     """Lift, rapids at the link height and entry from run end ``end`` to ``start``.
@@ -145,7 +145,7 @@ def link_runs(end: NDArray[np.float64], start: NDArray[np.float64],
     return centres, np.concatenate([np.array([lead[i] for i in keep], np.int8), kinds[1:]]), ramped
 
 
-def refine_moves(centres: NDArray[np.float64], kind: NDArray[np.int8], design: DropCutter,
+def refine_moves(centres: NDArray[np.float64], kind: NDArray[np.int8], design: DropSurface,
                  step: float = REFINE_STEP, rounds: int = 4
                  ) -> tuple[NDArray[np.float64], NDArray[np.int8], int]:
     """Insert drop-cutter points where a straight cutting move dips below the drop surface.

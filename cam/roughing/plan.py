@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from cam.roughing.dropcutter import DropCutter
+from cam.roughing.dropcutter import DropCutter, DropSurface
 from cam.roughing.linking import LinkSettings, entry_moves, link_runs, refine_moves
 from cam.roughing.passage import PassageGrid
 from cam.roughing.passes import rotate_z, zigzag_order
@@ -155,7 +155,7 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
     frame = umr.frame
     first_station, last_station = umr.stations
     targets = frame.to_frame(grid.centres[:, :, first_station:last_station + 1])
-    floor = frame.cutter.drop(targets.reshape(-1, 3)).reshape(targets.shape[:-1])
+    floor = frame.cut_floor(targets.reshape(-1, 3)).reshape(targets.shape[:-1])
     z = np.maximum(targets[..., 2], floor)
     lift = z - targets[..., 2]
     clamped = lift > 1e-6
@@ -204,7 +204,7 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
         lead = (last if centres else piece[0])[None]
         c, k, added = refine_moves(np.concatenate([lead, piece]),
                                    np.concatenate([[MoveKind.RAPID], kind]).astype(np.int8),
-                                   frame.cutter)
+                                   frame.tool)
         counts["refined"] += added
         zmap.sweep_moves(c, k)
         centres.append(c[1:])
@@ -214,7 +214,7 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
     for index, run in enumerate(runs):
         direction = run[1] - run[0] if len(run) > 1 else None
         if index == 0:
-            entry, entry_kind, ramped = entry_moves(run[0], direction, frame.cutter, zmap,
+            entry, entry_kind, ramped = entry_moves(run[0], direction, frame.tool, zmap,
                                                     settings, lowest(index, run[0]))
             top = entry[0].copy()
             top[2] = safe_height
@@ -222,12 +222,12 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
                 [[MoveKind.RAPID], entry_kind]).astype(np.int8)
             counts["ramps" if ramped else "plunges"] += 1
         elif (np.linalg.norm(run[0] - last) <= direct_link
-              and _line_clear(last, run[0], frame.cutter)):
+              and _line_clear(last, run[0], frame.tool)):
             piece = run[0][None]
             kind = np.array([direct_kind(last, run[0], up)], np.int8)
             counts["direct"] += 1
         else:
-            piece, kind, ramped = link_runs(last, run[0], direction, frame.cutter, zmap,
+            piece, kind, ramped = link_runs(last, run[0], direction, frame.tool, zmap,
                                             settings, lowest(index, run[0]))
             counts["full"] += 1
             counts["ramps" if ramped else "plunges"] += 1
@@ -276,7 +276,7 @@ def stock_map(frame: FixedAxisFrame, grid: PassageGrid, blank_triangles: NDArray
     return ZMap(lo, hi, blank_triangles @ frame.matrix.T, radius, cell)
 
 
-def _line_clear(a: NDArray[np.float64], b: NDArray[np.float64], cutter: DropCutter,
+def _line_clear(a: NDArray[np.float64], b: NDArray[np.float64], cutter: DropSurface,
                 step: float = 0.25) -> bool:
     """The straight ball-centre move a -> b (frame) stays on or above the drop surface."""
     n = max(2, int(math.ceil(float(np.linalg.norm(b - a)) / step)) + 1)

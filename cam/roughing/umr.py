@@ -59,6 +59,25 @@ class FixedAxisFrame:
         self.rho = float(rho)
         self.cutter = DropCutter(self.triangles, self.rho)
         self.top = float(self.triangles[:, :, 2].max())
+        self.shank: tuple[float, DropCutter] | None = None
+        #: what the links drop onto: ``cut_floor`` behind a drop-cutter's interface
+        self.tool = _ToolDrop(self)
+
+    def keep_shank_clear(self, offset: float, rho: float) -> None:
+        """Also keep the tool's shank clear: ``cut_floor`` then holds the ball centre so
+        that a ball of radius ``rho`` centred ``offset`` mm up the axis (where the
+        flutes end) touches nothing; what that ball sweeps on its way down contains
+        the shank cylinder of radius ``rho`` above it."""
+        self.shank = (float(offset), DropCutter(self.triangles, float(rho)))
+
+    def cut_floor(self, local: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Lowest ball-centre heights ``(n,)`` (frame z) under frame points ``(n, 3)``:
+        the ball's drop, and with ``keep_shank_clear`` the shank's."""
+        floor = self.cutter.drop(local)
+        if self.shank is not None:
+            offset, shank = self.shank
+            floor = np.maximum(floor, shank.drop(local) - offset)
+        return np.asarray(floor)
 
     def to_frame(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
         """W points ``(..., 3)`` -> frame coordinates."""
@@ -73,6 +92,16 @@ class FixedAxisFrame:
         local = self.to_frame(points_w)
         flat = local.reshape(-1, 3)
         return np.asarray(self.cutter.drop(flat).reshape(local.shape[:-1]))
+
+
+class _ToolDrop:
+    """``drop(points)`` of a frame's whole tool (ball and, if kept clear, shank)."""
+
+    def __init__(self, frame: FixedAxisFrame) -> None:
+        self.frame = frame
+
+    def drop(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
+        return self.frame.cut_floor(points)
 
 
 @dataclass

@@ -58,10 +58,12 @@ def blank_profile(
     where the hub nose stands above that face, the nose turned to its final contour
     (no allowance: no milling operation reaches it, and a cutter's shank passing over
     the inlet must not meet stock that the design does not have). With ``blade_radius``
-    (largest radius of the blades, mm) the outlet is turned too: beyond
-    ``blade_radius + allowance`` nothing stands in the way of a lathe tool, so the
+    (largest radius of the blades, mm) the outer diameter is turned before milling to
+    the blades' largest radius (the trailing edges' cylinder; a lathe finishes it, no
+    milling operation does): beyond it nothing stands in a lathe tool's way, so the
     blank there is the hub contour offset by the allowance (out to the rim), not a
-    ring of stock up to the shroud's outlet height around the blades' trailing edges.
+    ring of stock up to the shroud's outlet height around and between the trailing
+    edges, which the finishing tools' shanks brushed.
     """
     contour = np.asarray(shroud_contour, dtype=np.float64)
     r = contour[:, 1]
@@ -79,7 +81,7 @@ def blank_profile(
     top = -np.inf if blade_top is None else blade_top + allowance
     face = max(float(off_z[order[-1]]), top)
     pts = [(bore_radius, 0.0), (r_max, 0.0)]
-    r_cut = math.inf if blade_radius is None else blade_radius + allowance
+    r_cut = math.inf if blade_radius is None else blade_radius
     if r_cut < r_max - 1e-9:
         hub_r, hub_z = _offset(hub, allowance)
         outer = np.argsort(-hub_r)  # outlet first

@@ -303,15 +303,16 @@ def test_signed_distance_sign_where_the_nearest_sheet_faces_inwards() -> None:
 
 
 def test_blank_profile_turns_the_outlet_beyond_the_blades() -> None:
-    """Beyond the blades' largest radius + allowance a lathe reaches the hub: the blank
-    there is the hub contour + allowance out to the rim, not a ring of stock up to the
-    shroud's outlet height (hand-made contours as above, blades out to r = 35 mm)."""
+    """The outer diameter is turned to the blades' largest radius; beyond it a lathe
+    reaches the hub: the blank there is the hub contour + allowance out to the rim, not
+    a ring of stock up to the shroud's outlet height (hand-made contours as above,
+    blades out to r = 36 mm)."""
     from cam.verify.sources import blank_profile
 
     shroud = np.array([[20.0, 22.0], [15.0, 22.0], [10.0, 25.0], [9.0, 35.0]])  # z, r
     hub = np.array([[30.0, 9.0], [25.0, 9.0], [20.0, 9.0], [5.0, 18.0], [4.0, 39.0]])
     ring = blank_profile(shroud, 1.0, 4.0, hub, blade_top=21.0)
-    turned = blank_profile(shroud, 1.0, 4.0, hub, blade_top=21.0, blade_radius=35.0)
+    turned = blank_profile(shroud, 1.0, 4.0, hub, blade_top=21.0, blade_radius=36.0)
     assert ring[:, 0].max() == turned[:, 0].max() == pytest.approx(40.0)
     # the ring: the outer cylinder rises to the offset shroud's outlet height
     assert ring[2, 1] > 9.5
