@@ -138,8 +138,12 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
     tip_b = _interp_rows(s, sb, second.opposite_tip)
     curve_u = np.interp(s, sa, first.curve_u)
 
+    def phi_at(s_pass: Array, lam: float) -> Array:
+        return np.asarray((1.0 - lam) * np.interp(s_pass, s, phi_a)
+                          + lam * np.interp(s_pass, s, phi_b))
+
     def make(name: str, s_pass: Array, lam: float) -> CutterPath:
-        phi = (1.0 - lam) * np.interp(s_pass, s, phi_a) + lam * np.interp(s_pass, s, phi_b)
+        phi = phi_at(s_pass, lam)
         axis = _unit(rotate_about_z((1.0 - lam) * _interp_rows(s_pass, s, axis_a)
                                     + lam * _interp_rows(s_pass, s, axis_b), phi))
         near_first = lam < 0.5
@@ -160,10 +164,10 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
         def clearance(s_at: Array, lam: float = lam) -> Array:
             """Distance of the cutter's axis segment from ``keep_clear`` minus R, mm."""
             assert keep_clear is not None
-            phi_at = (1.0 - lam) * np.interp(s_at, s, phi_a) + lam * np.interp(s_at, s, phi_b)
-            centre = hub.offset(s_at, phi_at, radius)
+            phi = phi_at(s_at, lam)
+            centre = hub.offset(s_at, phi, radius)
             up = _unit(rotate_about_z((1.0 - lam) * _interp_rows(s_at, s, axis_a)
-                                      + lam * _interp_rows(s_at, s, axis_b), phi_at))
+                                      + lam * _interp_rows(s_at, s, axis_b), phi))
             heights = np.linspace(0.0, reach, _REACH_SAMPLES if reach > 0 else 1)
             points = centre[:, None, :] + heights[None, :, None] * up[:, None, :]
             distance = body_distance(keep_clear, points.reshape(-1, 3))
@@ -196,8 +200,8 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
                             ("te", np.concatenate([s_j[-1:], s[s > s_j[-1] + _S_GAP]]))):
             if len(s_pass) < 2 or wall is None:
                 continue
-            phi = (1.0 - lam) * np.interp(s_pass, s, phi_a) + lam * np.interp(s_pass, s, phi_b)
-            clear = body_distance(wall.blade, hub.offset(s_pass, phi, radius)) - radius
+            clear = body_distance(wall.blade, hub.offset(s_pass, phi_at(s_pass, lam), radius)
+                                  ) - radius
             ok = clear >= -_EDGE_TOLERANCE
             # from the junction's end outwards, up to the first point too close
             run = ok[::-1] if end == "le" else ok

@@ -63,11 +63,6 @@ __all__ = ["RoughResult", "plan_roughing", "run_rough"]
 #: collision service's tool meshes circumscribe the tool by up to ~0.05 mm: the
 #: cutter is checked grown by ``eta - CONTACT_MARGIN`` so a tangent ball is not a hit.
 CONTACT_MARGIN = 0.05
-#: The shank keeps this much clearance beyond the stock roughing leaves on the walls
-#: (eta + scallop), mm: verify found nine_blade's ball10 shank (just above its 22 mm
-#: flutes) 0.6-0.75 mm from the blades near their tips in the deepest layers, in
-#: that stock (99 shank events, up to 3.2 mm deep).
-SHANK_MARGIN = 0.25
 
 #: The paper's Table 1 (minutes), quoted next to ours in rough.json.
 PAPER_TABLE1 = {
@@ -137,7 +132,6 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
     depth = options.max_depth_mm or radius
     meshes, tessellation = design_meshes(surfaces, options)
     rho = radius + eta + tessellation
-    shank_radius = max([radius, *(max(s.r0, s.r1) for s in tool.shank_segments())])
     triangles = np.concatenate([np.asarray(m.triangles) for m in meshes.values()])
     blank = Blank(surfaces)
     closed_tri = np.asarray(blank.closed_mesh().triangles)
@@ -161,10 +155,7 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
                                       lane=lane_index)
         umrs += lane_umrs
         for umr in lane_umrs:
-            # the shank (above the flutes) keeps clear of the stock roughing leaves on
-            # the walls (eta + scallop) by SHANK_MARGIN more
-            umr.frame.keep_shank_clear(tool.flute_length - radius,
-                                       shank_radius + eta + options.scallop_mm + SHANK_MARGIN)
+            umr.frame.keep_shank_clear(tool, eta + options.scallop_mm)
             envelope = DropCutter(np.concatenate([umr.frame.triangles,
                                                   closed_tri @ umr.frame.matrix.T]),
                                   rho)

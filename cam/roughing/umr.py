@@ -30,12 +30,18 @@ from numpy.typing import NDArray
 
 from cam.roughing.dropcutter import DropCutter, frame_to_z
 from cam.roughing.passage import PassageGrid
+from cam.tools import Tool
 from geometry.surfaces import BladeSurface
 
 __all__ = ["UMR", "FixedAxisFrame", "partition_passage", "reached_floor"]
 
 #: Default look-ahead fractions of the candidate axes (see ``partition_passage``).
 LOOK_AHEAD = (0.0, 0.1, 0.2)
+#: The shank keeps this much clearance beyond the stock roughing leaves on the walls
+#: (eta + scallop), mm: verify found nine_blade's ball10 shank (just above its 22 mm
+#: flutes) 0.6-0.75 mm from the blades near their tips in the deepest layers, in
+#: that stock (99 shank events, up to 3.2 mm deep).
+SHANK_MARGIN = 0.25
 
 
 class FixedAxisFrame:
@@ -63,12 +69,15 @@ class FixedAxisFrame:
         #: what the links drop onto: ``cut_floor`` behind a drop-cutter's interface
         self.tool = _ToolDrop(self)
 
-    def keep_shank_clear(self, offset: float, rho: float) -> None:
-        """Also keep the tool's shank clear: ``cut_floor`` then holds the ball centre so
-        that a ball of radius ``rho`` centred ``offset`` mm up the axis (where the
-        flutes end) touches nothing; what that ball sweeps on its way down contains
-        the shank cylinder of radius ``rho`` above it."""
-        self.shank = (float(offset), DropCutter(self.triangles, float(rho)))
+    def keep_shank_clear(self, tool: Tool, stock: float) -> None:
+        """Also keep the tool's shank ``stock + SHANK_MARGIN`` mm from the design
+        (``stock``: what roughing leaves on the walls, eta + scallop): ``cut_floor``
+        then holds the ball centre so that a ball of the shank's radius plus that,
+        centred where the flutes end, touches nothing; what that ball sweeps on its
+        way down contains the shank cylinder above it (and the top of the flutes)."""
+        shank = max([tool.radius, *(max(s.r0, s.r1) for s in tool.shank_segments())])
+        self.shank = (tool.flute_length - tool.radius,
+                      DropCutter(self.triangles, shank + stock + SHANK_MARGIN))
 
     def cut_floor(self, local: NDArray[np.float64]) -> NDArray[np.float64]:
         """Lowest ball-centre heights ``(n,)`` (frame z) under frame points ``(n, 3)``:

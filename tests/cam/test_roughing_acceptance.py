@@ -163,7 +163,7 @@ def test_shank_keeps_clear_of_the_stock_left_on_the_walls(rough: tuple[Path, dic
     eta + scallop + SHANK_MARGIN from the design: the lowest 12 mm of the shank, checked
     against the finer STL of the real solid (the roughing's design meshes are
     ``tessellation_mm`` coarser)."""
-    from cam.roughing.command import SHANK_MARGIN
+    from cam.roughing.umr import SHANK_MARGIN
     from cam.tools import resolve_tool
 
     out, doc = rough
