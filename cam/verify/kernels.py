@@ -31,6 +31,7 @@ from numba import njit
 
 _EPS_LIN = 1e-9  # mm: slack on the linear constraints of a candidate point
 _EPS_Q = 1e-7  # mm^2: slack on Q <= 0 for corner candidates
+_REL_Q = 1e-9  # relative slack on Q = 0 for a root of a line and the conic
 _TINY = 1e-14
 #: Pieces shorter than this (mm) left by a subtraction are dropped.
 MIN_PIECE = 1e-6
@@ -51,28 +52,33 @@ def _feasible(t, s, zw, zu, zd, zlo, zhi):  # type: ignore[no-untyped-def]
 
 @njit(cache=True)
 def _line_roots(ct, cs, c0, qa, qb, qc, qd, qe, qf, out):  # type: ignore[no-untyped-def]
-    """Points of ``ct t + cs s + c0 = 0`` on ``Q = 0``; writes (t, s) pairs, returns count."""
-    nrm = ct * ct + cs * cs
+    """Points of ``ct t + cs s + c0 = 0`` on ``Q = 0``; writes (t, s) pairs, returns count.
+
+    The line is walked with a unit direction, so the quadratic's coefficients keep
+    the scale of ``Q`` itself; a short move makes ``ct``, ``cs`` tiny (the tangency
+    line ``dQ/ds = 0``), and an unnormalised direction used to turn a genuine quadratic
+    into a "linear" one whose root was not on the conic at all.
+    """
+    nrm = math.sqrt(ct * ct + cs * cs)
     if nrm < _TINY:
         return 0
-    p0t = -c0 * ct / nrm
-    p0s = -c0 * cs / nrm
+    ct /= nrm
+    cs /= nrm
+    c0 /= nrm
+    p0t = -c0 * ct
+    p0s = -c0 * cs
     qt = -cs
     qs = ct
     a2 = qa * qt * qt + 2.0 * qb * qt * qs + qc * qs * qs
     a1 = 2.0 * (qa * p0t * qt + qb * (p0t * qs + p0s * qt) + qc * p0s * qs + qd * qt + qe * qs)
     a0 = _q(p0t, p0s, qa, qb, qc, qd, qe, qf)
-    scale = abs(a2) + abs(a1) + abs(a0)
-    if scale == 0.0:
-        return 0
-    n = 0
-    if abs(a2) <= 1e-12 * scale:
-        if abs(a1) > 1e-12 * scale:
-            lam = -a0 / a1
-            out[0, 0] = p0t + lam * qt
-            out[0, 1] = p0s + lam * qs
-            n = 1
-        return n
+    if a2 == 0.0:
+        if a1 == 0.0:
+            return 0
+        lam = -a0 / a1
+        out[0, 0] = p0t + lam * qt
+        out[0, 1] = p0s + lam * qs
+        return 1
     disc = a1 * a1 - 4.0 * a2 * a0
     if disc < 0.0:
         if disc > -1e-10 * (a1 * a1 + abs(4.0 * a2 * a0)):
@@ -88,6 +94,14 @@ def _line_roots(ct, cs, c0, qa, qb, qc, qd, qe, qf, out):  # type: ignore[no-unt
     out[1, 0] = p0t + lam2 * qt
     out[1, 1] = p0s + lam2 * qs
     return 2
+
+
+@njit(cache=True)
+def _on_conic(t, s, qa, qb, qc, qd, qe, qf):  # type: ignore[no-untyped-def]
+    """True when ``Q(t, s)`` is zero up to round-off (a root that really is on the conic)."""
+    size = (abs(qa) * t * t + 2.0 * abs(qb * t * s) + abs(qc) * s * s + 2.0 * abs(qd * t)
+            + 2.0 * abs(qe * s) + abs(qf))
+    return abs(_q(t, s, qa, qb, qc, qd, qe, qf)) <= _EPS_Q + _REL_Q * size
 
 
 @njit(cache=True)
@@ -127,7 +141,7 @@ def swept_interval(  # type: ignore[no-untyped-def]
         for m in range(n):
             t = buf[m, 0]
             s = buf[m, 1]
-            if _feasible(t, s, zw, zu, zd, zlo, zhi):
+            if _feasible(t, s, zw, zu, zd, zlo, zhi) and _on_conic(t, s, qa, qb, qc, qd, qe, qf):
                 tmin = min(tmin, t)
                 tmax = max(tmax, t)
     return tmin, tmax

@@ -177,19 +177,8 @@ def test_swept_interval_matches_sampling(kind: str, seed: int, k: int) -> None:
             "cone": frustum(2.0, 7.0, 1.0, 3.0)}[kind]
     origin = rng.uniform(-3, 3, 3)
     origin[k] = 0.0
-    w = origin - tip
-    zu, zd, zw = axis[k], axis @ move, axis @ w
-    e_k = np.eye(3)[k]
-    u_p, d_p, w_p = e_k - zu * axis, move - zd * axis, w - zw * axis
-    alpha, beta, gamma, zlo, zhi = prim[:5]
-    coeffs = (
-        u_p @ u_p + alpha * zu * zu,
-        -(u_p @ d_p) - alpha * zu * zd,
-        d_p @ d_p + alpha * zd * zd,
-        w_p @ u_p + alpha * zw * zu + 0.5 * beta * zu,
-        -(w_p @ d_p) - alpha * zw * zd - 0.5 * beta * zd,
-        w_p @ w_p + alpha * zw * zw + beta * zw + gamma,
-    )
+    coeffs, zw, zu, zd = _swept_coefficients(prim, tip, move, axis, origin, k)
+    zlo, zhi = prim[3:5]
     ta, tb = swept_interval(*coeffs, zw, zu, zd, zlo, zhi, np.empty((2, 2)))
     ra, rb = _brute_interval(prim, tip, move, axis, origin, k)
     # t sampling plus the s sampling (1/200 of the move)
@@ -200,6 +189,100 @@ def test_swept_interval_matches_sampling(kind: str, seed: int, k: int) -> None:
     assert tb > ta
     assert ta == pytest.approx(ra, abs=step)
     assert tb == pytest.approx(rb, abs=step)
+
+
+def _swept_coefficients(
+    prim: np.ndarray, tip: np.ndarray, move: np.ndarray, axis: np.ndarray, origin: np.ndarray,
+    k: int,
+) -> tuple[tuple[float, ...], float, float, float]:
+    """Q(t, s) coefficients and the tool-frame height terms of one ray (module doc)."""
+    w = origin - tip
+    zu, zd, zw = axis[k], axis @ move, axis @ w
+    u_p, d_p, w_p = np.eye(3)[k] - zu * axis, move - zd * axis, w - zw * axis
+    alpha, beta, gamma = prim[:3]
+    return (
+        (u_p @ u_p + alpha * zu * zu, -(u_p @ d_p) - alpha * zu * zd, d_p @ d_p + alpha * zd * zd,
+         w_p @ u_p + alpha * zw * zu + 0.5 * beta * zu,
+         -(w_p @ d_p) - alpha * zw * zd - 0.5 * beta * zd,
+         w_p @ w_p + alpha * zw * zw + beta * zw + gamma),
+        float(zw), float(zu), float(zd),
+    )
+
+
+def _interval_per_s(coeffs: tuple[float, ...], zw: float, zu: float, zd: float, zlo: float,
+                    zhi: float, samples: int = 401) -> tuple[float, float]:
+    """Union over sampled s of the exact ray interval at that s (Q quadratic in t, qa > 0)."""
+    qa, qb, qc, qd, qe, qf = coeffs
+    lo, hi = math.inf, -math.inf
+    for s in np.linspace(0.0, 1.0, samples):
+        b, c = 2.0 * (qb * s + qd), qc * s * s + 2.0 * qe * s + qf
+        disc = b * b - 4.0 * qa * c
+        if disc < 0.0:
+            continue
+        t0, t1 = (-b - math.sqrt(disc)) / (2 * qa), (-b + math.sqrt(disc)) / (2 * qa)
+        za, zb = (zlo - zw + zd * s) / zu, (zhi - zw + zd * s) / zu
+        t0, t1 = max(t0, min(za, zb)), min(t1, max(za, zb))
+        if t1 >= t0:
+            lo, hi = min(lo, t0), max(hi, t1)
+    return lo, hi
+
+
+def test_swept_interval_of_a_short_move_along_the_ray() -> None:
+    # nine_blade finish_hub.ngc line 43 at sweep tolerance 0.005 mm: a 0.009 mm
+    # sub-move, the shank frustum on a ray 11 degrees off its axis. The tangency line
+    # dQ/ds = 0 had coefficients ~1e-5 and its "root" (t = 57.6, Q = 78 there) was
+    # taken, so the shank seemed to run 8.6 mm into the stock.
+    coeffs = (0.037548816056039935, -3.959904518903945e-05, 7.577838520395827e-05,
+              -4.1335703954436385, 0.0022248357110362443, 429.6142315673146)
+    zw, zu, zd = -31.95963243460435, 0.9804483375416728, 0.003066997772569557
+    ta, tb = swept_interval(*coeffs, zw, zu, zd, 15.0, 65.0, np.empty((2, 2)))
+    ra, rb = _interval_per_s(coeffs, zw, zu, zd, 15.0, 65.0)
+    assert (ra, rb) == pytest.approx((84.0597, 98.8963), abs=1e-3)
+    assert (ta, tb) == pytest.approx((ra, rb), abs=1e-4)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    seed=st.integers(0, 100_000),
+    length=st.floats(1e-7, 0.05),
+    off_axis_deg=st.floats(6.0, 40.0),
+    kind=st.sampled_from(["sphere", "cylinder", "shank", "holder"]),
+)
+def test_swept_interval_of_short_moves_matches_per_s_intervals(
+    seed: int, length: float, off_axis_deg: float, kind: str
+) -> None:
+    # Short sub-moves are what a fine sweep tolerance makes; rays near the tool axis
+    # make the conic's t^2 term small. Shapes and distances as on a real tool.
+    rng = np.random.default_rng(seed)
+    prim = {"sphere": sphere_cap(3.0, 3.0, 0.0, 3.0), "cylinder": frustum(3.0, 30.0, 3.0, 3.0),
+            "shank": frustum(15.0, 65.0, 3.0, 4.75), "holder": frustum(65.0, 105.0, 10.0, 13.0)
+            }[kind]
+    k = int(rng.integers(3))
+    e_k = np.eye(3)[k]
+    side = np.cross(e_k, rng.normal(size=3))
+    side /= np.linalg.norm(side)
+    theta = math.radians(off_axis_deg)
+    axis = math.cos(theta) * e_k + math.sin(theta) * side
+    axis *= rng.choice([-1.0, 1.0])
+    tip = rng.uniform(-100.0, 100.0, 3)
+    move = rng.normal(size=3)
+    move *= length / np.linalg.norm(move)
+    radial = rng.normal(size=3)
+    radial -= (radial @ axis) * axis
+    radial *= rng.uniform(0.0, 1.2 * prim[5]) / np.linalg.norm(radial)
+    origin = tip + rng.uniform(prim[3] - 5.0, prim[4] + 5.0) * axis + radial
+    origin[k] = 0.0
+    coeffs, zw, zu, zd = _swept_coefficients(prim, tip, move, axis, origin, k)
+    assert coeffs[0] > 0.0
+    ta, tb = swept_interval(*coeffs, zw, zu, zd, prim[3], prim[4], np.empty((2, 2)))
+    ra, rb = _interval_per_s(coeffs, zw, zu, zd, prim[3], prim[4])
+    # s sampling: a ray grazing the surface can move its ends by length / sin(angle)
+    slack = 1e-6 + 50.0 * length
+    if not math.isfinite(ra):
+        assert not tb > ta or tb - ta <= slack
+        return
+    assert ta == pytest.approx(ra, abs=slack)
+    assert tb == pytest.approx(rb, abs=slack)
 
 
 def test_rays_through_mesh_edges_and_vertices_count_once() -> None:
