@@ -12,7 +12,10 @@ blade and hub samples split into those within ``near_fillet`` of a fillet face a
 the rest. Blade-side samples beyond the shroud envelope (the revolved shroud contour,
 ``shroud_offset`` > 0) are the blank's skin over the blade tips: its nearest design
 triangle may be a blade side at the tip edge, but that material is the shroud turning's
-business, not the blade finishing's, so it is reported apart as well.
+business, not the blade finishing's, so it is reported apart as well; so are samples
+whose closest design point lies on a tip's edge (the skin's corner, which on a leaning
+blade reaches slightly inside the envelope: nine_blade's suction side had two such
+samples 0.06 and 0.29 mm inside it, 0.55-0.62 mm from the design).
 """
 
 from __future__ import annotations
@@ -24,13 +27,16 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-__all__ = ["ACCEPTANCE_ROLES", "LabelledDesign", "closest_roles", "passage_position",
-           "region_summary", "role_table", "shroud_offset"]
+__all__ = ["ACCEPTANCE_ROLES", "LabelledDesign", "closest_roles", "on_tip_edge",
+           "passage_position", "region_summary", "role_table", "shroud_offset"]
 
 #: Roles whose surfaces the chain machines and acceptance checks (blade sides, hub).
 ACCEPTANCE_ROLES = ("pressure", "suction", "hub")
 #: Blade-side roles (split off beyond the shroud envelope).
 BLADE_SIDES = ("pressure", "suction")
+#: A sample whose closest tip-face point is this close to its closest design point has
+#: its foot on the tip's edge, mm (the two faces share the edge's vertices).
+ON_EDGE = 1e-6
 #: Samples per chunk of the closest-triangle query.
 CHUNK = 50_000
 
@@ -75,6 +81,35 @@ def closest_roles(
         out_role[s:s + CHUNK] = roles[idx[rows, best]]
         out_dist[s:s + CHUNK] = dist[rows, best]
     return out_role, out_dist
+
+
+def on_tip_edge(triangles: NDArray[np.float64], roles: NDArray[np.str_],
+                points: NDArray[np.float64], distance: NDArray[np.float64]
+                ) -> NDArray[np.bool_]:
+    """Whether each point's closest design point lies on a blade tip (role ``shroud``).
+
+    Parameters
+    ----------
+    triangles : (t, 3, 3) float64
+        Design triangles, mm.
+    roles : (t,) str
+        Face role of every triangle.
+    points : (n, 3) float64
+        Blade-side samples, mm.
+    distance : (n,) float64
+        Their distance to the closest design triangle (``closest_roles``), mm.
+
+    Returns
+    -------
+    (n,) bool
+        True where the closest tip point is as close as the closest design point (to
+        ``ON_EDGE``): the foot is on the edge a blade side shares with its tip.
+    """
+    tips = triangles[roles == "shroud"]
+    if not len(tips) or not len(points):
+        return np.zeros(len(points), dtype=bool)
+    _, to_tip = closest_roles(tips, np.full(len(tips), "shroud"), points)
+    return np.asarray(to_tip <= distance + ON_EDGE)
 
 
 def _polyline_fraction(zr: NDArray[np.float64], contour: NDArray[np.float64]
@@ -255,7 +290,9 @@ def region_summary(design: LabelledDesign, stock_npz: str | Path, allowance: flo
         axisymmetric lathe work, outside the passages the chain mills) are reported
         apart as ``<role>_outside_blades``, blade-side samples between the edges but
         beyond the shroud envelope (``shroud_offset`` > 0: the blank's skin over the
-        tips, lathe work too) as ``<role>_beyond_shroud``.
+        tips, lathe work too) or whose closest design point is on a tip's edge (the
+        skin's corner: where a blade leans, it reaches a little inside the envelope)
+        as ``<role>_beyond_shroud``.
 
     Returns
     -------
@@ -270,7 +307,7 @@ def region_summary(design: LabelledDesign, stock_npz: str | Path, allowance: flo
     stock = Stock.load(Path(stock_npz))
     points, _, moves = stock.surface_samples()
     signed = design.distance(points)
-    role, _ = closest_roles(triangles, labels, points)
+    role, foot_distance = closest_roles(triangles, labels, points)
     checked = np.isin(role, ACCEPTANCE_ROLES)
     fillet = triangles[labels == "fillet"]
     near = np.zeros(len(points), dtype=bool)
@@ -284,6 +321,7 @@ def region_summary(design: LabelledDesign, stock_npz: str | Path, allowance: flo
     beyond = np.zeros(len(points), dtype=bool)
     sides = np.isin(role, BLADE_SIDES) & between
     beyond[sides] = shroud_offset(points[sides], shroud_contour, hub_contour) > 0.0
+    beyond[sides] |= on_tip_edge(triangles, labels, points[sides], foot_distance[sides])
     limit = allowance + tolerance
     touched = moves >= 0
     roles: dict[str, Any] = {}
