@@ -13,7 +13,11 @@ it about the blank's axis), independent of the link planner's own bookkeeping:
 * **five-axis segment** (``five_axis_rapids``): the ``SweptStock`` of its own
   cutting chains (ball and tool cylinder along the varying axis).
 
-Rapid moves are sampled every 0.5 mm (centre and axis linear).
+Rapid moves are sampled every 0.5 mm (centre and axis linear). The swept-stock test
+asks for ``sweptstock.KEPT_CLEARANCE`` (0.125 mm) around the ball: what the planners'
+descents guarantee between the poses they test at ``RAPID_CLEARANCE`` (0.25 mm) every
+0.25 mm; asking the full 0.25 mm at other sample heights flagged a descent of the
+nine_blade plan whose ball kept between 0.125 and 0.25 mm from the stock.
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from numpy.typing import NDArray
 from cam.roughing.plan import Segment
 from cam.roughing.stock import Blank
 from cam.roughing.stockmap import ZMap, sample_moves
-from cam.roughing.sweptstock import SweptStock
+from cam.roughing.sweptstock import KEPT_CLEARANCE, SweptStock
 from cam.roughing.umr import UMR
 from postproc.toolpath import MoveKind
 
@@ -60,7 +64,7 @@ def five_axis_rapids(segment: Segment, blank: Blank, radius: float, reach: float
                      ) -> tuple[int, int]:
     """Rapid moves of a segment with a sample in stock, and rapid moves checked."""
     runs, axes, starts = cut_chains(segment, radius)
-    swept = SweptStock(blank, radius, reach, runs, axes)
+    swept = SweptStock(blank, radius, reach, runs, axes, clearance=KEPT_CLEARANCE)
     c = segment.tip + radius * segment.axis
     pts, owner = _rapid_samples(c, segment.kind)
     bad: set[int] = set()
@@ -105,7 +109,7 @@ def fixed_axis_rapids(segment: Segment, umr: UMR, prior: list[Segment], blank: B
         old_r += r
         old_a += a
     swept = SweptStock(blank, radius, reach, old_r + runs, old_a + axes,
-                       [-1] * len(old_r) + list(range(len(runs))))
+                       [-1] * len(old_r) + list(range(len(runs))), clearance=KEPT_CLEARANCE)
     rapid = np.concatenate([[True], segment.kind[1:] == MoveKind.RAPID])
     edges = np.flatnonzero(np.diff(np.concatenate([[-1], rapid.astype(np.int8), [-1]])))
     bad: set[int] = set()

@@ -16,7 +16,9 @@ and the same link rules as the 3+2 plan (``linking.py``), along the tool axis:
   along the axis where the ramp is not clear or its top not in air;
 * the stock above a run's start: the blank less what the runs before have swept
   (``sweptstock.SweptStock``, ball and tool cylinder); the plunge starts ``entry_height``
-  above the lowest point down to which the ball comes in air along the axis.
+  above the lowest point down to which the ball comes in air along the axis;
+* a run that needs an entry is cut from the end with the shorter entry, unless a
+  direct link reaches one of its ends (``plan.oriented_run``, as the 3+2 plan).
 
 **Valid program.** The targets keep R + eta from hub and walls at the hub only;
 carried up the blended ruling they come closer than eta to twisted blade sides, so
@@ -38,7 +40,7 @@ from trimesh.triangles import closest_point
 from cam.collision.triangle_bvh import TriangleBVH
 from cam.roughing.linking import LinkSettings
 from cam.roughing.passage import PassageGrid
-from cam.roughing.plan import Segment, clear_distance, cutting_runs, direct_kind
+from cam.roughing.plan import Segment, clear_distance, cutting_runs, direct_kind, oriented_run
 from cam.roughing.retilt import refine_five_axis, retilt
 from cam.roughing.stock import Blank
 from cam.roughing.sweptstock import SweptStock
@@ -225,13 +227,25 @@ def five_axis_baseline(grid: PassageGrid, blank: Blank, tool: Tool, eta: float,
         kinds.append(np.array([k], np.int8))
 
     swept = SweptStock(blank, radius, tool.stickout - radius, runs, run_axes)
-    for index, (run, ax) in enumerate(zip(runs, run_axes, strict=True)):
+    def entry_depth(index: int, run: NDArray[np.float64], ax: NDArray[np.float64]) -> float:
+        """Feed entry length down the axis onto the run's first point, mm."""
         t_clear = clear_distance(run[0], ax[0], blank, radius, height)
-        t_in = min(t_clear, swept.approach(run[0], ax[0], t_clear, index) + height)
+        return min(t_clear, swept.approach(run[0], ax[0], t_clear, index) + height)
+
+    def reachable(run: NDArray[np.float64]) -> bool:
+        end = points[-1][-1]
+        return bool(np.linalg.norm(run[0] - end) <= direct_link
+                    and _ball_clear(end, run[0], bvh, rho))
+
+    for index, (run, ax) in enumerate(zip(runs, run_axes, strict=True)):
+        poses = oriented_run(np.hstack([run, ax]), index, bool(points),
+                             lambda p: reachable(p[:, :3]),
+                             lambda i, p: entry_depth(i, p[:, :3], p[:, 3:]))
+        run, ax = poses[:, :3], poses[:, 3:]
+        t_in = entry_depth(index, run, ax)
         if points:
             end, end_axis = points[-1][-1], vectors[-1][-1]
-            if (np.linalg.norm(run[0] - end) <= direct_link
-                    and _ball_clear(end, run[0], bvh, rho)):
+            if reachable(run):
                 points.append(run)
                 vectors.append(ax)
                 kinds.append(np.concatenate(

@@ -20,11 +20,14 @@ result about +Z for the other passages. Here:
   the stock left so far (``stockmap.ZMap``, updated run by run) and the design, a
   rapid approach to just above the stock at the next start and a ramp or plunge
   (``linking.py``); a plunge may start lower where ``sweptstock.SweptStock`` knows
-  earlier regions cut the material.
+  earlier regions cut the material. A run that needs such an entry is cut from
+  whichever end has the shorter feed entry (``oriented_run``: often the end next to a
+  region cut before), unless a direct link reaches one of its ends.
 * **Feed moves between CL points** are refined: each is sampled every
   ``REFINE_STEP`` mm and the drop-cutter height inserted where the straight move
   would dip below it, so the ball keeps eta from the design along the moves, not
-  only at the points.
+  only at the points. The runs are refined before the swept stock is built from
+  them, so it holds the cuts the program makes.
 * The simultaneous five-axis baseline (``baseline.py``) uses the same ordering and
   link rules.
 """
@@ -49,7 +52,7 @@ from cam.roughing.umr import UMR, FixedAxisFrame
 from postproc.toolpath import MoveKind
 
 __all__ = [
-    "Segment", "clear_distance", "cutting_runs", "direct_kind", "layer_visits",
+    "Segment", "clear_distance", "cutting_runs", "direct_kind", "layer_visits", "oriented_run",
     "region_segment",
     "rotate_segment", "safe_height_of", "stock_map",
 ]
@@ -172,6 +175,11 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
     material &= band[:, None, None]
     keep = material & ~repeated & ~shadow
     (runs,) = cutting_runs(keep, local)
+    # as cut: the moves between CL points lifted onto the drop surface (what ``emit``
+    # does), so the swept stock below knows the cuts the program really makes
+    refined = [refine_moves(r, np.concatenate([[MoveKind.RAPID], np.full(len(r) - 1, MoveKind.FEED)]
+                                              ).astype(np.int8), frame.tool) for r in runs]
+    runs = [c for c, _, _ in refined]
     zmap = stock_map(frame, grid, blank_triangles, radius) if stock is None else stock
     swept = None
     if reach > 0.0:
@@ -195,7 +203,8 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
         return float(start[2]) + t
     centres: list[NDArray[np.float64]] = []
     kinds: list[NDArray[np.int8]] = []
-    counts = {"direct": 0, "full": 0, "ramps": 0, "plunges": 0, "refined": 0}
+    counts = {"direct": 0, "full": 0, "ramps": 0, "plunges": 0,
+              "refined": sum(added for _, _, added in refined)}
     last: NDArray[np.float64] = np.zeros(3)
 
     def emit(piece: NDArray[np.float64], kind: NDArray[np.int8]) -> None:
@@ -211,7 +220,19 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
         kinds.append(k[1:])
         last = c[-1]
 
+    def entry_cost(index: int, run: NDArray[np.float64]) -> float:
+        """Length of the feed entry (ramp or plunge) onto the run's first point, mm."""
+        direction = run[1] - run[0] if len(run) > 1 else None
+        entry, _, _ = entry_moves(run[0], direction, frame.tool, zmap, settings,
+                                  lowest(index, run[0]))
+        return float(np.linalg.norm(entry[1] - entry[0]))
+
+    def reachable(run: NDArray[np.float64]) -> bool:
+        return bool(np.linalg.norm(run[0] - last) <= direct_link
+                    and _line_clear(last, run[0], frame.tool))
+
     for index, run in enumerate(runs):
+        run = oriented_run(run, index, bool(centres), reachable, entry_cost)
         direction = run[1] - run[0] if len(run) > 1 else None
         if index == 0:
             entry, entry_kind, ramped = entry_moves(run[0], direction, frame.tool, zmap,
@@ -221,8 +242,7 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
             piece, kind = np.concatenate([top[None], entry]), np.concatenate(
                 [[MoveKind.RAPID], entry_kind]).astype(np.int8)
             counts["ramps" if ramped else "plunges"] += 1
-        elif (np.linalg.norm(run[0] - last) <= direct_link
-              and _line_clear(last, run[0], frame.tool)):
+        elif reachable(run):
             piece = run[0][None]
             kind = np.array([direct_kind(last, run[0], up)], np.int8)
             counts["direct"] += 1
@@ -253,6 +273,31 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
     return Segment(tip, axis, kind, True, umr.index, 0, counts["ramps"], counts["plunges"],
                    int(keep.sum()), notes,
                    (0, len(z) - 1) if layers is None else (layers[0], layers[1]))
+
+
+def oriented_run(run: NDArray[np.float64], index: int, linked: bool,
+              reachable: Callable[[NDArray[np.float64]], bool],
+              entry_cost: Callable[[int, NDArray[np.float64]], float]) -> NDArray[np.float64]:
+    """The run as cut: as planned, or reversed when that saves feed entry.
+
+    ``run`` (n, c): poses, the first 3 columns the ball centre (more columns, e.g. the
+    axis, are reversed with them); ``reachable(run)``: a direct link from the last
+    cut reaches ``run[0]``; ``entry_cost(index, run)``: length of the feed entry onto
+    ``run[0]``, mm. A zigzag run can be cut from either end. Kept as planned when a direct link from
+    the previous run reaches it (so alternating layers still step straight down);
+    reversed when only the reversed run can be reached directly; otherwise the end
+    whose feed entry (ramp or plunge from just above the stock left there) is shorter
+    is the start, e.g. the end next to a region cut before rather than the end under
+    uncut blank.
+    """
+    if len(run) < 2:
+        return run
+    if linked and reachable(run):
+        return run
+    back = run[::-1].copy()
+    if linked and reachable(back):
+        return back
+    return back if entry_cost(index, back) < entry_cost(index, run) - 1e-6 else run
 
 
 def _cut_chains(centres: NDArray[np.float64], axes: NDArray[np.float64],

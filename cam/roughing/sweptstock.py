@@ -43,10 +43,15 @@ from scipy.spatial import cKDTree
 
 from cam.roughing.stock import Blank
 
-__all__ = ["SweptStock"]
+__all__ = ["APPROACH_STEP", "KEPT_CLEARANCE", "RAPID_CLEARANCE", "SweptStock"]
 
 #: The ball tested for air is the tool's ball grown by this much, mm.
 RAPID_CLEARANCE = 0.25
+#: Spacing of the descent poses ``approach`` tests, mm.
+APPROACH_STEP = 0.25
+#: What ``approach`` guarantees between its tested poses (``RAPID_CLEARANCE - step /
+#: 2``), mm; the rapid check (``cam.roughing.aircheck``) verifies this clearance.
+KEPT_CLEARANCE = RAPID_CLEARANCE - 0.5 * APPROACH_STEP
 #: A ball centre this close to a cut pose's axis is on it, mm.
 ON_AXIS = 1e-6
 #: Points of the unit sphere tested (``SPHERE``).
@@ -163,7 +168,7 @@ class SweptStock:
                            & (along <= self.reach + ON_AXIS)))
 
     def approach(self, start: NDArray[np.float64], axis: NDArray[np.float64], top: float,
-                 before: int, step: float = 0.25, chunk: int = 32) -> float:
+                 before: int, step: float = APPROACH_STEP, chunk: int = 32) -> float:
         """Lowest ``t`` in ``[0, top]`` such that the ball stays in air from
         ``start + top axis`` down to ``start + t axis`` (before run ``before``), mm.
 

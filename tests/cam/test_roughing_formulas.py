@@ -33,6 +33,31 @@ def test_eq1_tool_size_refuses_large_ball_with_numbers() -> None:
     assert "4.583" in str(err.value) and "12.000" in str(err.value)
 
 
+def test_a_run_is_cut_from_the_end_with_the_shorter_entry() -> None:
+    from cam.roughing.plan import oriented_run
+
+    run = np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [20.0, 0.0, 0.0]])
+
+    def entry(_index: int, r: np.ndarray) -> float:  # the end at x = 20 enters shorter
+        return 5.0 if r[0, 0] == 0.0 else 1.0
+
+    def never(_r: np.ndarray) -> bool:
+        return False
+
+    assert oriented_run(run, 1, True, never, entry)[0, 0] == 20.0
+    assert oriented_run(run, 1, True, never, entry)[-1, 0] == 0.0
+    # a direct link onto the planned start keeps the plan (a layer's step-down)...
+    assert oriented_run(run, 1, True, lambda r: bool(r[0, 0] == 0.0), entry)[0, 0] == 0.0
+    # ... one onto the far end turns the run whatever the entries
+    assert oriented_run(run, 1, True, lambda r: bool(r[0, 0] == 20.0),
+                     lambda _i, _r: 0.0)[0, 0] == 20.0
+    # equal entries keep the plan; the first run has no link to reach
+    assert oriented_run(run, 1, True, never, lambda _i, _r: 1.0)[0, 0] == 0.0
+    assert oriented_run(run, 0, False, lambda _r: True, entry)[0, 0] == 20.0
+    single = run[:1]
+    assert oriented_run(single, 0, False, never, entry) is single
+
+
 def test_layer_visits_cut_every_regions_upper_layers_first() -> None:
     from cam.roughing.plan import layer_visits
 
