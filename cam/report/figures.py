@@ -150,7 +150,9 @@ def toolpaths_section(folder: RunFolder, render: bool = True) -> Section:
             lack(parts, lost, f"no {stage} tool paths")
             continue
         parts.append(f"<h3>{titles[stage]}</h3>")
-        parts.append(swatch_legend([(layer.label, layer.colour) for layer in stage_layers]))
+        # one entry per label: a UMR's programs (one per visit) share its colour
+        parts.append(swatch_legend(list(dict.fromkeys(
+            (layer.label, layer.colour) for layer in stage_layers))))
         points = sum(len(r) for layer in stage_layers for r in layer.runs)
         if mesh is not None:
             from cam.report.renders import toolpath_png

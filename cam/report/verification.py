@@ -82,8 +82,11 @@ def _context_rows(folder: RunFolder) -> list[tuple[str, Cell]]:
     post_name = post.get("post") or run.get("post")
     rows.append(("Post-processor", _text(post_name) if post_name else "unknown"))
     for key in ("settings", "options", "versions"):
-        if run.get(key):
-            rows.append((key.capitalize(), _text(run[key])))
+        value = run.get(key)
+        if isinstance(value, dict):  # unset entries (e.g. no --post given) say nothing
+            value = {k: v for k, v in value.items() if v is not None}
+        if value:
+            rows.append((key.capitalize(), _text(value)))
     return rows
 
 

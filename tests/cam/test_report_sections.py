@@ -303,3 +303,23 @@ def test_operation_colours_distinct() -> None:
                ("junction", "blade", "hub")}
     colours |= {operation_colour("rough", f"rough_umr{i}")[1] for i in (1, 2, 3)}
     assert len(colours) == 6
+
+
+def test_one_legend_entry_per_umr_and_no_unset_settings(sample: Path) -> None:
+    # a UMR cut in two visits has two programs; the legend names the UMR once
+    from postproc.apt import read_apt, write_apt
+
+    write_apt(sample / "rough/rough_umr1_layers1-1.apt",
+              read_apt(sample / "rough/rough_umr1.apt"))
+    post = json.loads((sample / "nc/post.json").read_text())
+    post["programs"].insert(1, {**post["programs"][0], "name": "rough_umr1_layers1-1",
+                                "apt": "rough/rough_umr1_layers1-1.apt"})
+    (sample / "nc/post.json").write_text(json.dumps(post))
+    run = json.loads((sample / "run.json").read_text())
+    run["settings"] = {"rough_tool": "ball6", "post": None, "verify_resolution_mm": 0.25}
+    (sample / "run.json").write_text(json.dumps(run))
+    sections = sections_of(report_html(sample, render=False))
+    assert sections["toolpaths"].count("roughing UMR 1</li>") == 1
+    summary = plain(sections["summary"])
+    assert "rough_tool: ball6" in summary and "verify_resolution_mm: 0.25" in summary
+    assert "post:" not in summary
