@@ -14,8 +14,8 @@ the rest. Blade-side samples beyond the shroud envelope (the revolved shroud con
 triangle may be a blade side at the tip edge, but that material is the shroud turning's
 business, not the blade finishing's, so it is reported apart as well; so are samples
 whose closest design point lies on a tip's edge (the skin's corner, which on a leaning
-blade reaches slightly inside the envelope: nine_blade's suction side had two such
-samples 0.06 and 0.29 mm inside it, 0.55-0.62 mm from the design).
+blade reaches slightly inside the envelope: 220 of nine_blade's suction-side samples,
+up to 0.29 mm inside it and up to 0.55 mm from the design).
 """
 
 from __future__ import annotations
