@@ -142,10 +142,14 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
         return np.asarray((1.0 - lam) * np.interp(s_pass, s, phi_a)
                           + lam * np.interp(s_pass, s, phi_b))
 
+    def axis_at(s_pass: Array, lam: float, phi: Array) -> Array:
+        """Reference axis of the pass at ``lam``, blended and turned to ``phi``."""
+        return _unit(rotate_about_z((1.0 - lam) * _interp_rows(s_pass, s, axis_a)
+                                    + lam * _interp_rows(s_pass, s, axis_b), phi))
+
     def make(name: str, s_pass: Array, lam: float) -> CutterPath:
         phi = phi_at(s_pass, lam)
-        axis = _unit(rotate_about_z((1.0 - lam) * _interp_rows(s_pass, s, axis_a)
-                                    + lam * _interp_rows(s_pass, s, axis_b), phi))
+        axis = axis_at(s_pass, lam, phi)
         near_first = lam < 0.5
         away_rows = _interp_rows(s_pass, s, away_a if near_first else away_b)
         return CutterPath(
@@ -166,8 +170,7 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
             assert keep_clear is not None
             phi = phi_at(s_at, lam)
             centre = hub.offset(s_at, phi, radius)
-            up = _unit(rotate_about_z((1.0 - lam) * _interp_rows(s_at, s, axis_a)
-                                      + lam * _interp_rows(s_at, s, axis_b), phi))
+            up = axis_at(s_at, lam, phi)
             heights = np.linspace(0.0, reach, _REACH_SAMPLES if reach > 0 else 1)
             points = centre[:, None, :] + heights[None, :, None] * up[:, None, :]
             distance = body_distance(keep_clear, points.reshape(-1, 3))

@@ -227,10 +227,16 @@ def five_axis_baseline(grid: PassageGrid, blank: Blank, tool: Tool, eta: float,
         kinds.append(np.array([k], np.int8))
 
     swept = SweptStock(blank, radius, tool.stickout - radius, runs, run_axes)
+    known: dict[tuple[int, bytes], float] = {}
+
     def entry_depth(index: int, run: NDArray[np.float64], ax: NDArray[np.float64]) -> float:
-        """Feed entry length down the axis onto the run's first point, mm."""
-        t_clear = clear_distance(run[0], ax[0], blank, radius, height)
-        return min(t_clear, swept.approach(run[0], ax[0], t_clear, index) + height)
+        """Feed entry length down the axis onto the run's first point, mm (asked for
+        both ends by ``oriented_run``, then for the chosen one: kept)."""
+        key = (index, run[0].tobytes() + ax[0].tobytes())
+        if key not in known:
+            t_clear = clear_distance(run[0], ax[0], blank, radius, height)
+            known[key] = min(t_clear, swept.approach(run[0], ax[0], t_clear, index) + height)
+        return known[key]
 
     def reachable(run: NDArray[np.float64]) -> bool:
         end = points[-1][-1]

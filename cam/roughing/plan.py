@@ -192,8 +192,20 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
                            [-1] * len(old) + list(range(len(runs))))
     up = np.array([0.0, 0.0, 1.0])
 
+    known: dict[tuple[int, bytes], float | None] = {}
+
     def lowest(index: int, start: NDArray[np.float64]) -> float | None:
-        """Frame height down to which the swept stock says a plunge is in air."""
+        """Frame height down to which the swept stock says a plunge is in air.
+
+        Asked for both ends of a run (``oriented_run``) and again for the chosen one
+        while the stock map stands still (run ``index`` not yet emitted): kept.
+        """
+        key = (index, start.tobytes())
+        if key not in known:
+            known[key] = _lowest(index, start)
+        return known[key]
+
+    def _lowest(index: int, start: NDArray[np.float64]) -> float | None:
         if swept is None:
             return None
         top = float(max(zmap.air_height(start[None])[0], start[2])) + settings.entry_height
