@@ -42,6 +42,7 @@ from cam.roughing.plan import (
     stock_map,
 )
 from cam.roughing.report import breakdown, table1_markdown
+from cam.roughing.shank import shank_steps
 from cam.roughing.stock import Blank
 from cam.roughing.stockmap import ZMap
 from cam.roughing.timing import block_times
@@ -170,6 +171,7 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
                                   triangles, rho)
         base.notes["lane"] = float(lane_index)
         base0.append(base)
+    steps = shank_steps(tool)
     visits = layer_visits([g.n1 for _, g, _, _ in regions], options.layers_per_visit)
     for done, (span, r) in enumerate(visits):
         umr, grid, settings, zmap = regions[r]
@@ -177,7 +179,7 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
             progress(done, len(visits), f"UMR {umr.index + 1}: layers {span[0]}-{span[1]}")
         piece = region_segment(umr, grid, blank, closed_tri, radius, settings,
                                settings.safe_height, options.direct_link_mm,
-                               tool.stickout - radius, segments, span, zmap)
+                               tool.stickout - radius, segments, span, zmap, steps)
         if len(piece.tip):
             segments.append(piece)
     # each visit (one UMR: one A, C; some layers) over every passage, then the next

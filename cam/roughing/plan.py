@@ -45,6 +45,7 @@ from cam.roughing.dropcutter import DropCutter, DropSurface
 from cam.roughing.linking import LinkSettings, entry_moves, link_runs, refine_moves
 from cam.roughing.passage import PassageGrid
 from cam.roughing.passes import rotate_z, zigzag_order
+from cam.roughing.shank import ShankGuard
 from cam.roughing.stock import Blank
 from cam.roughing.stockmap import ZMap
 from cam.roughing.sweptstock import SweptStock
@@ -143,7 +144,8 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
                    radius: float, settings: LinkSettings, safe_height: float,
                    direct_link: float, reach: float = 0.0,
                    prior: list[Segment] | None = None, layers: tuple[int, int] | None = None,
-                   stock: ZMap | None = None) -> Segment:
+                   stock: ZMap | None = None,
+                   shank: list[tuple[float, float]] | None = None) -> Segment:
     """The 3+2 poses of one UMR in passage 0 (see module docstring).
 
     ``blank_triangles`` ``(m, 3, 3)``: the blank's closed boundary in W
@@ -153,38 +155,52 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
     plunge lower than the region's own stock map knows. ``layers``: the first and
     last layer (inclusive) cut by this segment (default all); ``stock``: the region's
     stock map carried over from its segments of the layers above (default a fresh
-    one; it is updated in place).
+    one; it is updated in place). ``shank``: the tool's ``shank.shank_steps``; given,
+    every point is lifted where its shank or holder would meet the stock left before
+    this visit (``shank.shank_floor``).
     """
     frame = umr.frame
     first_station, last_station = umr.stations
     targets = frame.to_frame(grid.centres[:, :, first_station:last_station + 1])
     floor = frame.cut_floor(targets.reshape(-1, 3)).reshape(targets.shape[:-1])
     z = np.maximum(targets[..., 2], floor)
+    depth = float(np.linalg.norm(grid.ruling, axis=-1).max()) / grid.n1
+    band = np.zeros(len(z), dtype=bool)
+    band[slice(None) if layers is None else slice(layers[0], layers[1] + 1)] = True
+    zmap = stock_map(frame, grid, blank_triangles, radius) if stock is None else stock
+    old = [c for p in prior or [] for c in _cut_chains(p.tip + radius * p.axis, p.axis,
+                                                        p.kind)]
+    cutter: DropSurface = frame.tool
+    guard = None
+    if shank:
+        # the stock as this visit finds it: the region's map and every earlier cut
+        before = (SweptStock(blank, radius, reach, [c for c, _ in old], [a for _, a in old])
+                  if reach > 0.0 and old else None)
+        guard = ShankGuard(frame.tool, shank, zmap, radius, frame.to_world, before, len(old))
+        cutter = guard
+        cand = band[:, None, None] & (z - targets[..., 2] <= depth)
+        pts = targets[cand]
+        pts[:, 2] = z[cand]
+        z[cand] = guard.floor(pts)
     lift = z - targets[..., 2]
     clamped = lift > 1e-6
     local = targets.copy()
     local[..., 2] = z
     world = frame.to_world(local)
     material = blank.touches(world, radius)
-    depth = float(np.linalg.norm(grid.ruling, axis=-1).max()) / grid.n1
     repeated = np.zeros_like(clamped)
     repeated[1:] = clamped[1:] & clamped[:-1] & (z[1:] > z[:-1] - 0.25 * depth)
     shadow = lift > depth
-    band = np.zeros(len(z), dtype=bool)
-    band[slice(None) if layers is None else slice(layers[0], layers[1] + 1)] = True
     material &= band[:, None, None]
     keep = material & ~repeated & ~shadow
     (runs,) = cutting_runs(keep, local)
     # as cut: the moves between CL points lifted onto the drop surface (what ``emit``
     # does), so the swept stock below knows the cuts the program really makes
     refined = [refine_moves(r, np.concatenate([[MoveKind.RAPID], np.full(len(r) - 1, MoveKind.FEED)]
-                                              ).astype(np.int8), frame.tool) for r in runs]
+                                              ).astype(np.int8), cutter) for r in runs]
     runs = [c for c, _, _ in refined]
-    zmap = stock_map(frame, grid, blank_triangles, radius) if stock is None else stock
     swept = None
     if reach > 0.0:
-        before = [_cut_chains(p.tip + radius * p.axis, p.axis, p.kind) for p in prior or []]
-        old = [c for chains in before for c in chains]
         swept = SweptStock(blank, radius, reach, [c for c, _ in old] + [frame.to_world(r)
                                                                           for r in runs],
                            [a for _, a in old] + [np.broadcast_to(frame.axis, r.shape)
@@ -225,7 +241,7 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
         lead = (last if centres else piece[0])[None]
         c, k, added = refine_moves(np.concatenate([lead, piece]),
                                    np.concatenate([[MoveKind.RAPID], kind]).astype(np.int8),
-                                   frame.tool)
+                                   cutter)
         counts["refined"] += added
         zmap.sweep_moves(c, k)
         centres.append(c[1:])
@@ -235,19 +251,19 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
     def entry_cost(index: int, run: NDArray[np.float64]) -> float:
         """Length of the feed entry (ramp or plunge) onto the run's first point, mm."""
         direction = run[1] - run[0] if len(run) > 1 else None
-        entry, _, _ = entry_moves(run[0], direction, frame.tool, zmap, settings,
+        entry, _, _ = entry_moves(run[0], direction, cutter, zmap, settings,
                                   lowest(index, run[0]))
         return float(np.linalg.norm(entry[1] - entry[0]))
 
     def reachable(run: NDArray[np.float64]) -> bool:
         return bool(np.linalg.norm(run[0] - last) <= direct_link
-                    and _line_clear(last, run[0], frame.tool))
+                    and _line_clear(last, run[0], cutter))
 
     for index, run in enumerate(runs):
         run = oriented_run(run, index, bool(centres), reachable, entry_cost)
         direction = run[1] - run[0] if len(run) > 1 else None
         if index == 0:
-            entry, entry_kind, ramped = entry_moves(run[0], direction, frame.tool, zmap,
+            entry, entry_kind, ramped = entry_moves(run[0], direction, cutter, zmap,
                                                     settings, lowest(index, run[0]))
             top = entry[0].copy()
             top[2] = safe_height
@@ -259,7 +275,7 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
             kind = np.array([direct_kind(last, run[0], up)], np.int8)
             counts["direct"] += 1
         else:
-            piece, kind, ramped = link_runs(last, run[0], direction, frame.tool, zmap,
+            piece, kind, ramped = link_runs(last, run[0], direction, cutter, zmap,
                                             settings, lowest(index, run[0]))
             counts["full"] += 1
             counts["ramps" if ramped else "plunges"] += 1
@@ -281,7 +297,8 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
     axis = np.broadcast_to(frame.axis, tip.shape).copy()
     notes = {"direct_links": float(counts["direct"]), "full_links": float(counts["full"]),
              "refined": float(counts["refined"]), "runs": float(len(runs)),
-             "shadow_points": float((material & shadow).sum())}
+             "shadow_points": float((material & shadow).sum()),
+             "shank_lifted": float(0 if guard is None else guard.lifted)}
     return Segment(tip, axis, kind, True, umr.index, 0, counts["ramps"], counts["plunges"],
                    int(keep.sum()), notes,
                    (0, len(z) - 1) if layers is None else (layers[0], layers[1]))

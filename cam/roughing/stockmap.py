@@ -121,6 +121,31 @@ def _air(ground: NDArray[np.float64], origin: NDArray[np.float64], cell: float,
     return out
 
 
+@numba.njit(cache=True)
+def _disc_max(ground: NDArray[np.float64], origin: NDArray[np.float64], cell: float,
+              points: NDArray[np.float64], radius: float) -> NDArray[np.float64]:
+    """Highest ``ground`` over the nodes within XY distance ``radius`` of each point
+    (``-inf`` where no node of the map is that close)."""
+    nx, ny = ground.shape
+    r2 = radius * radius
+    out = np.full(points.shape[0], -np.inf)
+    for k in range(points.shape[0]):
+        x, y = points[k, 0], points[k, 1]
+        i0 = max(0, int(math.ceil((x - radius - origin[0]) / cell)))
+        i1 = min(nx - 1, int(math.floor((x + radius - origin[0]) / cell)))
+        j0 = max(0, int(math.ceil((y - radius - origin[1]) / cell)))
+        j1 = min(ny - 1, int(math.floor((y + radius - origin[1]) / cell)))
+        best = -np.inf
+        for i in range(i0, i1 + 1):
+            dx = origin[0] + i * cell - x
+            for j in range(j0, j1 + 1):
+                dy = origin[1] + j * cell - y
+                if dx * dx + dy * dy <= r2 and ground[i, j] > best:
+                    best = ground[i, j]
+        out[k] = best
+    return out
+
+
 def _chains(a: NDArray[np.float64], b: NDArray[np.float64]
             ) -> list[NDArray[np.float64]]:
     """Polylines of the segments ``a[k] -> b[k]`` (joined where one ends at the next)."""
@@ -217,6 +242,14 @@ class ZMap:
     def ground(self) -> NDArray[np.float64]:
         """``G = min(T, F)`` at the nodes ``(nx, ny)``, mm."""
         return np.minimum(self.top, self.floor)
+
+    def highest(self, points: NDArray[np.float64], radius: float) -> NDArray[np.float64]:
+        """Highest stock ``(n,)`` (ground ``G``) within XY distance ``radius`` of
+        ``(n, 2|3)`` points, mm: the top of what a cylinder of that radius along the
+        axis would meet there (``-inf`` off the map)."""
+        pts = np.ascontiguousarray(np.asarray(points, dtype=np.float64)[:, :2])
+        return np.asarray(_disc_max(np.ascontiguousarray(self.ground()), self.origin,
+                                    self.cell, pts, float(radius)))
 
     def air_height(self, points: NDArray[np.float64], conservative: bool = True
                    ) -> NDArray[np.float64]:

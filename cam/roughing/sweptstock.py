@@ -4,8 +4,8 @@ The stock model the approach moves of both plans share (a 3+2 region's own cuts 
 also in its ``stockmap.ZMap``). A cut pose (ball centre ``c``, unit axis ``a``)
 leaves the space the tool takes in air: the capsule from ``c`` to ``c + reach a`` of
 radius R (ball, flutes and shank up to the holder; like the Z-map's column above the
-ball: whether the shank rubs stock left by the layers above is not modelled by
-either plan). Cutting runs are sampled every ``step`` mm along their moves (centre
+ball: air if the shank met no stock there, which ``shank.ShankGuard`` ensures for
+the 3+2 plan). Cutting runs are sampled every ``step`` mm along their moves (centre
 and axis interpolated) and every ``step`` mm up each sample's axis; every sample lies
 on a capsule's axis, so a point within R of a sample is removed (the union of those
 balls lies inside the swept capsules).
@@ -136,22 +136,39 @@ class SweptStock:
             [np.zeros((1, 3)), SPHERE])[None]
         flat = probe.reshape(-1, 3)
         ok = ~self.blank.touches(flat, self.margin)
-        prefix = int(np.searchsorted(self.labels, before, side="left"))
-        within = self.radius - self.margin
-        if self.tree is not None and prefix > 0 and not ok.all() and within > 0.0:
-            rest = np.flatnonzero(~ok)
-            d, idx = self.tree.query(flat[rest], k=8, distance_upper_bound=within)
-            found = np.isfinite(d)
-            ok[rest] = (found & (idx < prefix)).any(axis=1)
-            # all 8 nearest within reach but from later runs: look at every sample
-            unsure = np.flatnonzero(found.all(axis=1) & ~ok[rest])
-            for i in rest[unsure].tolist():
-                near = self.tree.query_ball_point(flat[i], within)
-                ok[i] = bool(near) and min(near) < prefix
+        rest = np.flatnonzero(~ok)
+        ok[rest] = self._removed(flat[rest], before, self.radius - self.margin)
         inside = np.asarray(ok.reshape(probe.shape[:2]).all(axis=1), dtype=bool)
         for i in np.flatnonzero(~inside).tolist():
             inside[i] = self._on_a_column(c[i], before)
         return np.asarray(inside)
+
+    def stock(self, points: NDArray[np.float64], before: int) -> NDArray[np.bool_]:
+        """Whether points ``(n, 3)`` are stock before run ``before``: inside the blank
+        and not within R of a sample of an earlier run (conservative: a point in the
+        swept volume's skin between the sampled balls counts as stock)."""
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        out = self.blank.touches(p, 0.0)
+        inside = np.flatnonzero(out)
+        out[inside] = ~self._removed(p[inside], before, self.radius)
+        return np.asarray(out)
+
+    def _removed(self, points: NDArray[np.float64], before: int, within: float
+                 ) -> NDArray[np.bool_]:
+        """Whether points ``(n, 3)`` lie within ``within`` of a sample of a run
+        labelled below ``before`` (so inside what that run swept)."""
+        ok = np.zeros(len(points), dtype=bool)
+        prefix = int(np.searchsorted(self.labels, before, side="left"))
+        if self.tree is None or prefix == 0 or within <= 0.0 or not len(points):
+            return ok
+        d, idx = self.tree.query(points, k=8, distance_upper_bound=within)
+        found = np.isfinite(d)
+        ok[:] = (found & (idx < prefix)).any(axis=1)
+        # all 8 nearest within reach but from later runs: look at every sample
+        for i in np.flatnonzero(found.all(axis=1) & ~ok).tolist():
+            near = self.tree.query_ball_point(points[i], within)
+            ok[i] = bool(near) and min(near) < prefix
+        return ok
 
     def _on_a_column(self, centre: NDArray[np.float64], before: int) -> bool:
         """The ball at ``centre`` lies on the axis of a cut pose of a run before

@@ -85,15 +85,13 @@ def test_allowance_against_independent_stl(rough: tuple[Path, dict], tmp_path: P
     assert dist.min() - 3.0 >= eta - 0.02
 
 
-@pytest.mark.xfail(strict=True, reason="measured after the layer-major cut order (issue 8: "
-                   "an index move per UMR, layer and passage, 43 programs instead of 8): "
-                   "the 3+2 plan is no longer shorter than the baseline at every feed "
-                   "(numbers in docs/roughing.md, 'Cut order')")
 def test_three_axis_faster_than_five_axis(rough: tuple[Path, dict]) -> None:
-    """Measured on this fixture (docs/roughing.md): with both programs linked alike, the
-    baseline valid and every approach 0.25 mm clear of the stock, the 3+2 plan is
-    shorter at all four feeds, nominal (0.8-1.3 %) and with the machine's limits; it
-    cuts a shorter path."""
+    """Measured on this fixture (docs/roughing.md, session 7): with both programs
+    planned on the verification's blank, linked alike, the baseline valid and the 3+2
+    shank kept out of the stock, the 3+2 plan is shorter at all four feeds, nominal
+    (27.93 / 14.31 / 9.77 / 7.50 against 30.21 / 15.28 / 10.31 / 7.82 min) and with
+    the machine's limits (29.21 / 15.62 / 11.11 / 8.87 against 30.93 / 16.47 /
+    12.04 / 10.12 min); it cuts a shorter path (12.3 against 13.3 m)."""
     _, doc = rough
     for feed in FEEDS:
         for field in ("time_min", "time_limited_min"):

@@ -1,0 +1,68 @@
+"""The roughing blank is the verification's lathe-turned blank (hand-computed cases)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cam.roughing.stock import Blank
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _rectangle_blank() -> Blank:
+    """A ring blank: r in [4, 10], z in [0, 5] (a bore of radius 4)."""
+    blank = object.__new__(Blank)
+    blank.profile = np.array([[4.0, 0.0], [10.0, 0.0], [10.0, 5.0], [4.0, 5.0], [4.0, 0.0]])
+    blank.z_top, blank.r_out = 5.0, 10.0
+    return blank
+
+
+def test_distance_and_touches_in_the_meridian_plane() -> None:
+    blank = _rectangle_blank()
+    c45 = math.cos(math.radians(45.0))
+    pts = np.array([
+        [7.0, 0.0, 2.0],                 # inside
+        [0.0, -12.0, 2.0],               # 2 outside the rim, another meridian
+        [13.0 * c45, 13.0 * c45, 9.0],   # off the corner (10, 5): hypot(3, 4) = 5
+        [1.0, 1.0, 2.5],                 # in the bore: 4 - sqrt(2) from its wall
+        [6.0, 0.0, -0.5],                # 0.5 below the back face
+    ])
+    d = blank.distance(pts)
+    assert d == pytest.approx([0.0, 2.0, 5.0, 4.0 - math.sqrt(2.0), 0.5], abs=1e-12)
+    assert blank.touches(pts, 2.01).tolist() == [True, True, False, False, True]
+    assert blank.touches(pts, 0.0).tolist() == [True, False, False, False, False]
+    # shapes follow the centres
+    assert blank.touches(pts.reshape(5, 1, 3), 1.0).shape == (5, 1)
+
+
+def test_same_solid_as_the_verification_stock() -> None:
+    """The spec's blank for roughing and for ``verify --stock SPEC`` is one profile,
+    and the revolved mesh's first hit from above is its top."""
+    from cam.roughing.dropcutter import DropCutter
+    from geometry.blank import spec_blank_profile
+    from geometry.spec import load_spec
+    from geometry.surfaces import build_surfaces
+
+    spec = load_spec(ROOT / "fixtures/impellers/small/spec.toml")
+    blank = Blank(build_surfaces(spec))
+    profile = spec_blank_profile(spec)
+    assert np.array_equal(blank.profile, profile)  # closed: it ends where it starts
+    assert np.array_equal(profile[-1], profile[0])
+    # straight down at radius r on the mesh's first meridian: the top of the blank
+    # there, the highest z of the profile's edges over r
+    tri = np.asarray(blank.closed_mesh().triangles)
+    probe = 1e-3
+    r = np.linspace(blank.profile[:, 0].min() + 0.5, blank.r_out - 0.5, 12)
+    top = DropCutter(tri, probe, cell=1.0).drop(np.column_stack([r, np.zeros_like(r)])) - probe
+    a, b = blank.profile[:-1], blank.profile[1:]
+    expect = []
+    for ri in r:
+        over = (np.minimum(a[:, 0], b[:, 0]) <= ri) & (ri <= np.maximum(a[:, 0], b[:, 0])) & (
+            a[:, 0] != b[:, 0])
+        t = (ri - a[over, 0]) / (b[over, 0] - a[over, 0])
+        expect.append(float((a[over, 1] + t * (b[over, 1] - a[over, 1])).max()))
+    assert top == pytest.approx(expect, abs=2e-3)
