@@ -6,10 +6,10 @@ it about the blank's axis), independent of the link planner's own bookkeeping:
 * **3+2 segment** (``fixed_axis_rapids``): replayed in order through a
   ``stockmap.ZMap`` of the UMR's frame (the blank, then every cutting move of the
   UMR's visits swept as it comes, one map per UMR); a rapid sample is in air when
-  its ball is above the map's air height (0.05 mm tolerance: the map's node
-  spacing), or, failing that, when the ``sweptstock.SweptStock`` of the segments cut
-  before and of this segment's cutting chains before the rapid says so (cuts of
-  other UMRs);
+  its ball is above the map's air height by ``BAND`` (2 mm); nearer (or below it,
+  0.05 mm tolerance: the map's node spacing) the ``sweptstock.SweptStock`` of the
+  segments cut before and of this segment's cutting chains before the rapid decides
+  (cuts of other UMRs; stock between the map's nodes);
 * **five-axis segment** (``five_axis_rapids``): the ``SweptStock`` of its own
   cutting chains (ball and tool cylinder along the varying axis).
 
@@ -38,6 +38,11 @@ __all__ = ["cut_chains", "five_axis_rapids", "fixed_axis_rapids", "rapid_checks"
 
 #: Tolerance of the Z-map air test, mm.
 TOLERANCE = 0.05
+#: Rapid samples less than this above the Z-map's air height are asked of the swept
+#: stock too, mm: the map misses a wedge of stock between its nodes where a face
+#: lies almost along the axis (a splitter plunge came down 0.27 mm into the blank's
+#: inlet face that way, under UMR 1's almost radial axis).
+BAND = 2.0
 
 
 def cut_chains(segment: Segment, radius: float) -> tuple[list[NDArray[np.float64]],
@@ -125,11 +130,11 @@ def fixed_axis_rapids(segment: Segment, umr: UMR, prior: list[Segment], blank: B
         owner = owner + lo - 1
         dip = zmap.air_height(pts, conservative=False) - pts[:, 2]
         over = np.flatnonzero(dip > TOLERANCE)
-        if not len(over):
-            continue
-        depth = max(depth, float(dip[over].max()))
-        for move in np.unique(owner[over]).tolist():
-            sel = over[owner[over] == move]
+        if len(over):
+            depth = max(depth, float(dip[over].max()))
+        near = np.flatnonzero(dip > -BAND)
+        for move in np.unique(owner[near]).tolist():
+            sel = near[owner[near] == move]
             before = int(np.searchsorted(starts, move, side="left"))
             if not swept.air(frame.to_world(pts[sel]), before).all():
                 bad.add(move)

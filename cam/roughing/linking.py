@@ -74,7 +74,8 @@ def entry_moves(start: NDArray[np.float64], direction: NDArray[np.float64] | Non
     ``lowest``: a frame height down to which a ball coming down the axis over
     ``start`` (from the stock map's air height) is known to stay in air from another
     stock model (``SweptStock``: cuts of earlier regions); a plunge may start
-    ``entry_height`` above it.
+    ``entry_height`` above it. Above the stock map's entry top, it raises the entry
+    (that model found stock the map's nodes miss).
 
     Returns
     -------
@@ -86,9 +87,13 @@ def entry_moves(start: NDArray[np.float64], direction: NDArray[np.float64] | Non
     """
     above = float(_ceiling(start[None], design, stock)[0])
     z_top = max(above, float(start[2])) + settings.entry_height
-    plunge_top = z_top if lowest is None else min(
-        z_top, max(lowest, float(design.drop(start[None])[0]), float(start[2]))
-        + settings.entry_height)
+    if lowest is None:
+        plunge_top = z_top
+    elif lowest > z_top:  # the other model finds stock where the stock map sees air
+        plunge_top = z_top = lowest + settings.entry_height
+    else:
+        plunge_top = min(z_top, max(lowest, float(design.drop(start[None])[0]),
+                                    float(start[2])) + settings.entry_height)
     if direction is not None and settings.entry_angle_deg < 90.0:
         d = np.array([direction[0], direction[1], 0.0])
         norm = np.linalg.norm(d)

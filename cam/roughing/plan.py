@@ -48,7 +48,7 @@ from cam.roughing.passes import rotate_z, zigzag_order
 from cam.roughing.shank import ShankGuard
 from cam.roughing.stock import Blank
 from cam.roughing.stockmap import ZMap
-from cam.roughing.sweptstock import SweptStock
+from cam.roughing.sweptstock import APPROACH_STEP, SweptStock
 from cam.roughing.umr import UMR, FixedAxisFrame
 from postproc.toolpath import MoveKind
 
@@ -211,7 +211,8 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
     known: dict[tuple[int, bytes], float | None] = {}
 
     def lowest(index: int, start: NDArray[np.float64]) -> float | None:
-        """Frame height down to which the swept stock says a plunge is in air.
+        """Frame height down to which the swept stock says a plunge is in air (above
+        the stock map's entry top when the swept stock finds that top in stock).
 
         Asked for both ends of a run (``oriented_run``) and again for the chosen one
         while the stock map stands still (run ``index`` not yet emitted): kept.
@@ -227,7 +228,13 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
         top = float(max(zmap.air_height(start[None])[0], start[2])) + settings.entry_height
         if not np.isfinite(top):
             return None
-        t = swept.approach(frame.to_world(start), frame.axis, top - float(start[2]), index)
+        origin = frame.to_world(start)
+        t = swept.approach(origin, frame.axis, top - float(start[2]), index)
+        if not swept.air((origin + t * frame.axis)[None], index)[0]:
+            # the stock map's entry top is not in air (a wedge of stock between its
+            # nodes, e.g. a face almost parallel to the axis): come down from higher
+            t = swept.rise(origin, frame.axis, t + APPROACH_STEP,
+                           settings.safe_height - float(start[2]), index)
         return float(start[2]) + t
     centres: list[NDArray[np.float64]] = []
     kinds: list[NDArray[np.int8]] = []

@@ -206,6 +206,18 @@ class SweptStock:
         return 0.0
 
 
+    def rise(self, start: NDArray[np.float64], axis: NDArray[np.float64], bottom: float,
+             limit: float, before: int, step: float = APPROACH_STEP) -> float:
+        """Lowest ``t`` in ``[bottom, limit]`` (every ``step`` mm up) at which the ball
+        at ``start + t axis`` is in air before run ``before``; ``limit`` if none."""
+        t = np.arange(bottom, limit, step)
+        for lo in range(0, len(t), 32):
+            part = t[lo:lo + 32]
+            ok = np.flatnonzero(self.air(start[None] + part[:, None] * axis[None], before))
+            if len(ok):
+                return float(part[ok[0]])
+        return float(limit)
+
 def _along(run: NDArray[np.float64], axes: NDArray[np.float64], step: float
            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Centres and unit axes every ``step`` mm along a run's moves (its poses too)."""

@@ -89,8 +89,8 @@ def test_three_axis_faster_than_five_axis(rough: tuple[Path, dict]) -> None:
     """Measured on this fixture (docs/roughing.md, session 7): with both programs
     planned on the verification's blank, linked alike, the baseline valid and the 3+2
     shank kept out of the stock, the 3+2 plan is shorter at all four feeds, nominal
-    (27.93 / 14.31 / 9.77 / 7.50 against 30.21 / 15.28 / 10.31 / 7.82 min) and with
-    the machine's limits (29.21 / 15.62 / 11.11 / 8.87 against 30.93 / 16.47 /
+    (27.96 / 14.33 / 9.78 / 7.51 against 30.21 / 15.28 / 10.31 / 7.82 min) and with
+    the machine's limits (29.25 / 15.64 / 11.12 / 8.88 against 30.93 / 16.47 /
     12.04 / 10.12 min); it cuts a shorter path (12.3 against 13.3 m)."""
     _, doc = rough
     for feed in FEEDS:
