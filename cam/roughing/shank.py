@@ -29,6 +29,7 @@ centre ``c`` (frame, axis +Z) is clear when no stock lies in any step's cylinder
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,6 +41,9 @@ from cam.tools import Tool
 
 __all__ = ["BISECTIONS", "CLEARANCE", "MARGIN", "SPACING", "ShankGuard", "shank_floor",
            "shank_steps"]
+
+#: Frame points ``(k, 3)`` -> W (``FixedAxisFrame.to_world``).
+ToWorld = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 
 #: Test points lie this far outside the shank's and holder's surfaces, mm: more
 #: than half the spacing at which cutting moves are refined (``linking.REFINE_STEP``
@@ -90,9 +94,7 @@ def _points(centres: NDArray[np.float64], steps: list[tuple[float, float]],
             if span < 0.0:
                 continue
             z = base + np.arange(0.0, span + SPACING, SPACING)
-            side = np.concatenate([np.broadcast_to(around[:, None], (len(around), len(z), 2))
-                                   .reshape(-1, 2),
-                                   ], axis=0)
+            side = np.broadcast_to(around[:, None], (len(around), len(z), 2)).reshape(-1, 2)
             zs = np.broadcast_to(z[None], (len(around), len(z))).reshape(-1)
             cyl = np.column_stack([side + c[:2], zs])
             flat = np.column_stack([bottom + c[:2], np.full(len(bottom), base)])
@@ -105,20 +107,20 @@ def _points(centres: NDArray[np.float64], steps: list[tuple[float, float]],
 
 
 def _clear(centres: NDArray[np.float64], steps: list[tuple[float, float]],
-           tops: NDArray[np.float64], radius: float, to_world: object,
+           tops: NDArray[np.float64], radius: float, to_world: ToWorld,
            swept: SweptStock, before: int) -> NDArray[np.bool_]:
     """Whether the poses ``(m, 3)`` (frame) have no test point in stock."""
     pts, owner = _points(centres, steps, tops, radius + CLEARANCE)
     hit = np.zeros(len(centres), dtype=bool)
     if len(pts):
-        world = to_world(pts)  # type: ignore[operator]
+        world = to_world(pts)
         bad = swept.stock(world, before)
         hit[np.unique(owner[bad])] = True
     return ~hit
 
 
 def shank_floor(local: NDArray[np.float64], steps: list[tuple[float, float]], zmap: ZMap,
-                radius: float, to_world: object, swept: SweptStock | None,
+                radius: float, to_world: ToWorld, swept: SweptStock | None,
                 before: int = 0) -> tuple[NDArray[np.float64], int]:
     """Lowest ball-centre heights ``(n,)`` (frame z) at which the poses' shank and
     holder meet no stock, and how many poses had to be lifted.
@@ -190,7 +192,7 @@ class ShankGuard:
     """
 
     def __init__(self, base: DropSurface, steps: list[tuple[float, float]], zmap: ZMap,
-                 radius: float, to_world: object, swept: SweptStock | None,
+                 radius: float, to_world: ToWorld, swept: SweptStock | None,
                  before: int = 0) -> None:
         self.base = base
         self.steps = steps
