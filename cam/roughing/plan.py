@@ -12,7 +12,10 @@ result about +Z for the other passages. Here:
   design triangle. A point is cut only where material is: its ball meets the blank,
   the drop lifts it less than one layer depth above its target (more means the
   target lies in a blade's shadow for this axis: the layer above already cut that
-  height), and it does not repeat the clamped height of the layer above.
+  height), and it does not repeat the clamped height of the layer above. With the
+  tool's shank steps, a point is also lifted until its shank and holder meet none of
+  the stock left before the visit (``shank.ShankGuard``, which is then the drop
+  surface of the visit's refined moves, direct links and entries too).
 * **Order and links** (both plans): layers alternate direction, so each layer ends
   above the start of the next; two consecutive runs are joined by one direct
   cutting move when it is at most ``direct_link_mm`` long and safe (drop-cutter
