@@ -171,15 +171,14 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
                                   triangles, rho)
         base.notes["lane"] = float(lane_index)
         base0.append(base)
-    steps = shank_steps(tool)
     visits = layer_visits([g.n1 for _, g, _, _ in regions], options.layers_per_visit)
     for done, (span, r) in enumerate(visits):
         umr, grid, settings, zmap = regions[r]
         if progress is not None:
             progress(done, len(visits), f"UMR {umr.index + 1}: layers {span[0]}-{span[1]}")
         piece = region_segment(umr, grid, blank, closed_tri, radius, settings,
-                               settings.safe_height, options.direct_link_mm,
-                               tool.stickout - radius, segments, span, zmap, steps)
+                               options.direct_link_mm, tool.stickout - radius, segments,
+                               span, zmap, shank_steps(tool))
         if len(piece.tip):
             segments.append(piece)
     # each visit (one UMR: one A, C; some layers) over every passage, then the next

@@ -144,8 +144,7 @@ def direct_kind(a: NDArray[np.float64], b: NDArray[np.float64],
 
 
 def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: NDArray[np.float64],
-                   radius: float, settings: LinkSettings, safe_height: float,
-                   direct_link: float, reach: float = 0.0,
+                   radius: float, settings: LinkSettings, direct_link: float, reach: float = 0.0,
                    prior: list[Segment] | None = None, layers: tuple[int, int] | None = None,
                    stock: ZMap | None = None,
                    shank: list[tuple[float, float]] | None = None) -> Segment:
@@ -276,7 +275,7 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
             entry, entry_kind, ramped = entry_moves(run[0], direction, cutter, zmap,
                                                     settings, lowest(index, run[0]))
             top = entry[0].copy()
-            top[2] = safe_height
+            top[2] = settings.safe_height
             piece, kind = np.concatenate([top[None], entry]), np.concatenate(
                 [[MoveKind.RAPID], entry_kind]).astype(np.int8)
             counts["ramps" if ramped else "plunges"] += 1
@@ -294,7 +293,7 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
     if centres:
         out = last + np.array([0.0, 0.0, settings.lift])
         top = last.copy()
-        top[2] = max(safe_height, float(out[2]))
+        top[2] = max(settings.safe_height, float(out[2]))
         centres += [out[None], top[None]]
         kinds.append(np.array([MoveKind.RETRACT, MoveKind.RAPID], np.int8))
         local_all = np.concatenate(centres)

@@ -66,41 +66,51 @@ def shank_steps(tool: Tool) -> list[tuple[float, float]]:
     return [(seg.z0 - r, max(seg.r0, seg.r1)) for seg in (*tool.shank_segments(), *tool.holder)]
 
 
+def _ring(radius: float) -> NDArray[np.float64]:
+    """``(k, 2)`` points every ``SPACING`` mm (at least 8) around a circle."""
+    k = max(8, int(math.ceil(2.0 * math.pi * radius / SPACING)))
+    a = 2.0 * math.pi * np.arange(k) / k
+    return np.stack([radius * np.cos(a), radius * np.sin(a)], axis=1)
+
+
 def _points(centres: NDArray[np.float64], steps: list[tuple[float, float]],
             tops: NDArray[np.float64], below: float) -> tuple[NDArray[np.float64],
                                                               NDArray[np.int64]]:
     """Test points (frame) of the steps of poses ``centres`` ``(m, 3)`` and the pose
-    each belongs to; ``tops`` ``(m, s)``: highest stock near each step (frame z)."""
+    each belongs to; ``tops`` ``(m, s)``: highest stock near each step (frame z).
+
+    Per step: rings ``CLEARANCE`` outside its side every ``SPACING`` mm from its bottom
+    up to ``tops``, and its bottom face (rings inwards to the step below's radius)."""
     pts: list[NDArray[np.float64]] = []
     owner: list[NDArray[np.int64]] = []
     inner = below
     for s, (h, r) in enumerate(steps):
         ring = r + CLEARANCE
-        n_around = max(8, int(math.ceil(2.0 * math.pi * ring / SPACING)))
-        phi = 2.0 * math.pi * np.arange(n_around) / n_around
-        around = np.stack([ring * np.cos(phi), ring * np.sin(phi)], axis=1)
+        around = _ring(ring)
         # bottom face where this step is wider than the one below
-        radii = np.arange(ring, inner - 1e-9, -SPACING)
-        face = [np.zeros((1, 2))] if inner <= 0.0 else []
-        for rho in radii:
-            k = max(8, int(math.ceil(2.0 * math.pi * rho / SPACING)))
-            a = 2.0 * math.pi * np.arange(k) / k
-            face.append(np.stack([rho * np.cos(a), rho * np.sin(a)], axis=1))
+        face = [_ring(rho) for rho in np.arange(ring, inner - 1e-9, -SPACING)]
         bottom = np.concatenate(face) if face else np.zeros((0, 2))
         inner = ring
-        for i, c in enumerate(centres):
-            base = float(c[2]) + h
-            span = float(tops[i, s]) - base
-            if span < 0.0:
-                continue
-            z = base + np.arange(0.0, span + SPACING, SPACING)
-            side = np.broadcast_to(around[:, None], (len(around), len(z), 2)).reshape(-1, 2)
-            zs = np.broadcast_to(z[None], (len(around), len(z))).reshape(-1)
-            cyl = np.column_stack([side + c[:2], zs])
-            flat = np.column_stack([bottom + c[:2], np.full(len(bottom), base)])
-            both = np.concatenate([cyl, flat])
-            pts.append(both)
-            owner.append(np.full(len(both), i, np.int64))
+        base = centres[:, 2] + h
+        span = tops[:, s] - base
+        poses = np.flatnonzero(span >= 0.0)
+        if not len(poses):
+            continue
+        # as many rings as np.arange(0, span + SPACING, SPACING) gives each pose
+        count = np.ceil((span[poses] + SPACING) / SPACING).astype(np.int64)
+        level = np.arange(int(count.max()))
+        up = level[None, :] < count[:, None]  # (p, levels)
+        pose_of, lev = np.nonzero(up)
+        z = base[poses][pose_of] + lev * SPACING  # one height per (pose, ring)
+        xy = centres[poses][pose_of][:, None, :2] + around[None]
+        side = np.concatenate([xy, np.broadcast_to(z[:, None, None], (len(z), len(around), 1))],
+                              axis=2).reshape(-1, 3)
+        flat = np.concatenate([centres[poses][:, None, :2] + bottom[None],
+                               np.broadcast_to(base[poses][:, None, None],
+                                               (len(poses), len(bottom), 1))],
+                              axis=2).reshape(-1, 3)
+        pts += [side, flat]
+        owner += [np.repeat(poses[pose_of], len(around)), np.repeat(poses, len(bottom))]
     if not pts:
         return np.zeros((0, 3)), np.zeros(0, np.int64)
     return np.concatenate(pts), np.concatenate(owner)
@@ -146,7 +156,7 @@ def shank_floor(local: NDArray[np.float64], steps: list[tuple[float, float]], zm
     z = np.asarray(local[:, 2], dtype=np.float64).copy()
     if not steps or not len(z):
         return z, 0
-    tops = np.stack([zmap.highest(local, r + MARGIN) for _, r in steps], axis=1)
+    tops = zmap.highest_within(local, [r + MARGIN for _, r in steps])
     heights = np.array([h for h, _ in steps])
     limit = (tops - heights[None]).max(axis=1)
     under = np.flatnonzero(z < limit)

@@ -247,9 +247,16 @@ class ZMap:
         """Highest stock ``(n,)`` (ground ``G``) within XY distance ``radius`` of
         ``(n, 2|3)`` points, mm: the top of what a cylinder of that radius along the
         axis would meet there (``-inf`` off the map)."""
+        return self.highest_within(points, [radius])[:, 0]
+
+    def highest_within(self, points: NDArray[np.float64], radii: list[float]
+                       ) -> NDArray[np.float64]:
+        """``highest`` for several radii at once ``(n, len(radii))`` (the ground is
+        formed once)."""
         pts = np.ascontiguousarray(np.asarray(points, dtype=np.float64)[:, :2])
-        return np.asarray(_disc_max(np.ascontiguousarray(self.ground()), self.origin,
-                                    self.cell, pts, float(radius)))
+        ground = np.ascontiguousarray(self.ground())
+        out = [_disc_max(ground, self.origin, self.cell, pts, float(r)) for r in radii]
+        return np.stack(out, axis=1) if out else np.zeros((len(pts), 0))
 
     def air_height(self, points: NDArray[np.float64], conservative: bool = True
                    ) -> NDArray[np.float64]:
