@@ -255,6 +255,8 @@ class TriangleSet:
         Bounding box of each piece, mm.
     smallest_component : float
         Smallest bounding-box diagonal of a piece, mm.
+    piece_points, piece_diagonals : (p, 3), (p,) float64
+        One vertex of every piece and its bounding-box diagonal, mm.
     """
 
     def __init__(self, vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> None:
@@ -263,6 +265,10 @@ class TriangleSet:
         self.piece = np.ascontiguousarray(label[self.bvh.order])  # per leaf-order triangle
         diagonal = np.linalg.norm(self.piece_hi - self.piece_lo, axis=1)
         self.smallest_component = float(diagonal.min())
+        present, first = np.unique(label, return_index=True)
+        #: one vertex ``(p, 3)`` of every piece and the piece's diagonal ``(p,)``, mm
+        self.piece_points = np.asarray(vertices, dtype=np.float64)[faces[first, 0]]
+        self.piece_diagonals = diagonal[present]
 
     def distances(self, points: NDArray[np.float64], reach: float) -> NDArray[np.float64]:
         """Exact ``(k,)`` distances of points ``(k, 3)`` to the triangles (inf beyond reach)."""

@@ -194,6 +194,44 @@ def segments_profile(segments: tuple[Segment, ...]) -> NDArray[np.float64]:
     return _dedupe(np.asarray(rows, dtype=np.float64))
 
 
+def grown_profile(profile: NDArray[np.float64], distance: float, step: float = 0.5
+                  ) -> NDArray[np.float64]:
+    """Meridian outline of a part grown by ``distance``: its revolve contains every
+    point within ``distance`` of the revolved ``profile`` (Minkowski sum with a ball).
+
+    A point at height ``z`` within ``distance`` of the part lies at most
+    ``max R(z') + distance`` from the axis, over ``|z' - z| <= distance`` (``R``: the
+    profile's radius at a height). That radius is taken at heights ``step`` mm apart
+    over a window widened by ``step``, so the straight outline between two samples
+    still contains it; the ends lie ``distance`` beyond the part's.
+
+    Parameters
+    ----------
+    profile : (k, 2) float64
+        ``(r, z)`` axis-to-axis meridian polyline (``revolve``'s input).
+    distance, step : float
+        Growth and sample spacing along the axis, mm (> 0).
+
+    Returns
+    -------
+    (m, 2) float64
+        Axis-to-axis polyline for ``revolve``.
+    """
+    side = profile[1:-1]
+    z0, z1 = float(profile[0, 1]), float(profile[-1, 1])
+    count = max(2, int(math.ceil((z1 - z0 + 2.0 * distance) / step)) + 1)
+    heights = np.linspace(z0 - distance, z1 + distance, count)
+    radii = np.empty(count)
+    reach = distance + step
+    for i, z in enumerate(heights):
+        lo, hi = max(z - reach, z0), min(z + reach, z1)
+        inside = side[(side[:, 1] >= lo) & (side[:, 1] <= hi), 0]
+        ends = np.interp([lo, hi], side[:, 1], side[:, 0])
+        radii[i] = max(float(ends.max()), float(inside.max(initial=0.0))) + distance
+    return np.vstack([[0.0, heights[0]], np.column_stack([radii, heights]),
+                      [0.0, heights[-1]]])
+
+
 def _dedupe(points: NDArray[np.float64]) -> NDArray[np.float64]:
     keep = np.ones(len(points), dtype=bool)
     keep[1:] = np.any(np.abs(np.diff(points, axis=0)) > 1e-12, axis=1)

@@ -104,7 +104,8 @@ def check_path(scene: CollisionScene, tool: Tool, tip: Array, axis: Array,
         motion = scene.check_motion(tool, tip, axis, max_step_mm=options.motion_step_mm,
                                     max_step_deg=options.motion_step_deg,
                                     cutter_allowance=options.cutter_allowance_mm,
-                                    clearance_cap=options.clearance_exact_mm)
+                                    # only compared with the limit: exact below it
+                                    clearance_cap=options.clearance_mm)
         mclear = np.asarray(motion.clearance, dtype=np.float64)
         motion_collides = np.asarray(motion.collides, dtype=bool) | (
             np.isfinite(mclear) & (mclear < options.clearance_mm))

@@ -93,9 +93,10 @@ class FinishOptions:
     clearance_mm : float
         Required clearance of shank and holder from the part, mm.
     clearance_exact_mm : float
-        Clearances up to this are exact (fcl distance); larger ones are reported as
-        a guaranteed lower bound (at least this), which saves most distance queries.
-        Must be at least ``clearance_mm``.
+        Posture clearances up to this are exact (fcl distance); larger ones are
+        reported as a guaranteed lower bound (at least this), which saves most
+        distance queries. Must be at least ``clearance_mm``. The motion between
+        postures is only compared with ``clearance_mm``: exact below that.
     motion_step_mm, motion_step_deg : float
         Subdivision of the motion between consecutive postures for the continuous
         collision check (bound reported in finish.json).

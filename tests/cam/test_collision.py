@@ -21,7 +21,7 @@ from cam.collision import (
 )
 from cam.collision.broad_phase import axis_spheres, inscribed_radii, surface_samples
 from cam.collision.synthetic import impeller_meshes
-from cam.collision.tool_mesh import arc_polygon
+from cam.collision.tool_mesh import arc_polygon, grown_profile, segments_profile
 from cam.tools import Tool, resolve_tool
 from impeller_cam.errors import InputError
 
@@ -489,9 +489,55 @@ def test_clearance_cap_gives_exact_values_below_and_bounds_above(
     below = exact.clearance <= 2.0
     assert below.any() and (~below).any()
     assert np.allclose(capped.clearance[below], exact.clearance[below], atol=1e-9)
-    assert np.all(capped.clearance[~below] > 2.0)
+    assert np.all(capped.clearance[~below] >= 2.0)  # a lower bound: at least the cap
     assert np.all(capped.clearance[~below] <= exact.clearance[~below] + 1e-9)
+    assert np.all(exact.clearance[capped.clearance >= 2.0] >= 2.0 - 1e-9)
     assert capped.checks["distance"] < exact.checks["distance"]
+
+
+def test_grown_profile_of_a_cylinder_by_hand() -> None:
+    """A cylinder r = 2, z 0..10 grown by 1: r = 3 over z -1..11 (the Minkowski sum's
+    outline, its rounded edges inside)."""
+    profile = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 10.0], [0.0, 10.0]])
+    grown = grown_profile(profile, 1.0, step=0.5)
+    assert grown[0].tolist() == [0.0, -1.0] and grown[-1].tolist() == [0.0, 11.0]
+    assert np.allclose(grown[1:-1, 0], 3.0)
+    assert np.all(np.diff(grown[1:-1, 1]) <= 0.5 + 1e-12)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.floats(0.5, 5.0))
+def test_grown_profile_contains_every_point_within_the_distance(seed: int, grow: float
+                                                                ) -> None:
+    """Points within ``grow`` of the tapered shank and stepped holder of ``BALL`` lie
+    inside the grown outline (radius from the axis against the outline's radius at
+    that height, linear between its points)."""
+    rng = np.random.default_rng(seed)
+    for segments in (BALL.shank_segments(), BALL.holder):
+        profile = segments_profile(tuple(segments))
+        grown = grown_profile(profile, grow)[1:-1]
+        side = profile[1:-1]
+        z = rng.uniform(side[0, 1], side[-1, 1], 400)
+        r = np.interp(z, side[:, 1], side[:, 0]) * rng.uniform(0.0, 1.0, 400)
+        offset = rng.normal(size=(400, 2))
+        offset *= (grow * rng.uniform(0.0, 1.0, 400) / np.linalg.norm(offset, axis=1))[:, None]
+        rho, height = np.abs(r + offset[:, 0]), z + offset[:, 1]
+        assert np.all(height >= grown[0, 1] - 1e-12) and np.all(height <= grown[-1, 1] + 1e-12)
+        assert np.all(rho <= np.interp(height, grown[:, 1], grown[:, 0]) + 1e-9)
+
+
+def test_clearance_cap_measures_a_piece_nested_in_the_grown_tool() -> None:
+    """Above the cap a grown-tool collide that misses proves the clearance, but fcl
+    meshes only meet where surfaces cross: a crumb 1 mm from the shank, wholly inside
+    the shank grown by the 2 mm cap, is measured (about 1 mm), not passed as >= 2."""
+    scene = CollisionScene({"crumb": box((4.9, -0.2, 39.8), (5.3, 0.2, 40.2)),
+                            "floor": box((-50, -50, -120), (50, 50, -110))})
+    tip = np.zeros((1, 3))
+    capped = scene.check_postures(BALL, tip, UP, clearance_cap=2.0)
+    exact = scene.check_postures(BALL, tip, UP)
+    assert not capped.collides[0]
+    assert 0.9 < exact.clearance[0] < 1.1
+    assert capped.clearance[0] == pytest.approx(exact.clearance[0], abs=1e-9)
 
 
 def test_surface_buried_inside_the_cutter_is_not_a_hit() -> None:
