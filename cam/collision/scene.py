@@ -544,11 +544,14 @@ class CollisionScene:
         inside = np.zeros(len(tip), dtype=bool)
         if not len(points) or not len(tip):
             return inside
-        rel = points[None, :, :] - tip[:, None, :]
-        height = np.einsum("npk,nk->np", rel, axis)
-        radial = np.linalg.norm(rel - height[..., None] * axis[:, None, :], axis=-1)
-        for outline in grown.outlines:
-            r, z = outline[:, 0], outline[:, 1]
-            within = (height >= z[0]) & (height <= z[-1])
-            inside |= (within & (radial <= np.interp(height, z, r))).any(axis=1)
+        chunk = max(1, 1_000_000 // len(points))  # postures x points per block
+        for a in range(0, len(tip), chunk):
+            rel = points[None, :, :] - tip[a:a + chunk, None, :]
+            ax = axis[a:a + chunk]
+            height = np.einsum("npk,nk->np", rel, ax)
+            radial = np.linalg.norm(rel - height[..., None] * ax[:, None, :], axis=-1)
+            for outline in grown.outlines:
+                r, z = outline[:, 0], outline[:, 1]
+                within = (height >= z[0]) & (height <= z[-1])
+                inside[a:a + chunk] |= (within & (radial <= np.interp(height, z, r))).any(axis=1)
         return inside
