@@ -51,6 +51,7 @@ from cam.collision.broad_phase import (
 )
 from cam.collision.distance_grid import DistanceGrid, RoleMask
 from cam.collision.exact_phase import HIT, SceneArrays, TriangleSet, classify_part
+from cam.collision.grown_tool import GrownTool
 from cam.collision.narrow_phase import first_contacts
 from cam.collision.postures import (
     motion_bound,
@@ -65,8 +66,6 @@ from cam.collision.tool_mesh import (
     PartGeometry,
     bvh_model,
     concatenate,
-    grown_profile,
-    revolve,
     tool_geometry,
 )
 from cam.tools import Tool
@@ -134,18 +133,8 @@ class _ToolModel:
     clear_object: fcl.CollisionObject | None
     clear_spheres: tuple[NDArray[np.float64], NDArray[np.float64]] | None
     reach: float
-    #: shank+holder grown by a clearance cap (``tool_mesh.grown_profile``), by cap
-    grown: dict[float, _Grown] = field(default_factory=dict)
-
-
-@dataclass
-class _Grown:
-    """Shank and holder grown by a clearance cap: fcl object, meridian outlines
-    ``(r, z)`` as meshed (circumscribed sections), bounding-box diagonal (mm)."""
-
-    object: fcl.CollisionObject
-    outlines: list[NDArray[np.float64]]
-    size: float
+    #: shank+holder grown by a clearance cap (``grown_tool.GrownTool``), by cap
+    grown: dict[float, GrownTool] = field(default_factory=dict)
 
 
 def _check_meshes(meshes: Mapping[str, trimesh.Trimesh]) -> None:
@@ -499,21 +488,11 @@ class CollisionScene:
             clear[body_hit] = 0.0
             exact = np.flatnonzero((clear <= cap) & ~body_hit)
         if exact.size and not math.isinf(cap):
-            # the grown shank+holder missing the scene proves clearance >= cap: one
-            # fcl collide (about 30x cheaper than a distance) settles most of them
-            grown = self._grown(model, cap)
-            touch = fcl.CollisionRequest()
-            near = np.zeros(len(tip), dtype=bool)
-            for i in exact:
-                grown.object.setTransform(fcl.Transform(rot[i], tip[i]))
-                near[i] = fcl.collide(grown.object, self.whole_object, touch,
-                                      fcl.CollisionResult()) > 0
-            # surfaces that do not cross may still nest: a scene piece small enough
-            # to lie wholly inside the grown tool is measured too
-            missed = exact[~near[exact]]
-            near[missed] = self._piece_inside(grown, tip[missed], axis[missed])
-            clear[exact[~near[exact]]] = cap
-            exact = exact[near[exact]]
+            # grown by the cap and missing the scene: clearance >= cap, no distance
+            proven = self._grown(model, cap).misses(self.whole_object, rot[exact],
+                                                    tip[exact], axis[exact])
+            clear[exact[proven]] = cap
+            exact = exact[~proven]
         request = fcl.DistanceRequest()
         for i in exact:
             model.clear_object.setTransform(fcl.Transform(rot[i], tip[i]))
@@ -521,37 +500,10 @@ class CollisionScene:
             clear[i] = max(float(d), 0.0)
         return clear, len(exact)
 
-    def _grown(self, model: _ToolModel, cap: float) -> _Grown:
+    def _grown(self, model: _ToolModel, cap: float) -> GrownTool:
         """The shank and holder grown by ``cap`` mm (cached per tool model and cap)."""
         if cap not in model.grown:
             body = [model.parts[n] for n in ("shank", "holder") if n in model.parts]
-            outlines = [grown_profile(p.profile, cap) for p in body]
-            mesh = concatenate([revolve(o, self.sections) for o in outlines])
-            scale = 1.0 / math.cos(math.pi / self.sections)
-            model.grown[cap] = _Grown(
-                fcl.CollisionObject(bvh_model(mesh.vertices, mesh.faces)),
-                [o[1:-1] * np.array([scale, 1.0]) for o in outlines],
-                float(np.linalg.norm(np.ptp(mesh.vertices, axis=0))),
-            )
+            model.grown[cap] = GrownTool.build(body, cap, self.sections,
+                                               list(self.triangles.values()))
         return model.grown[cap]
-
-    def _piece_inside(self, grown: _Grown, tip: NDArray[np.float64],
-                      axis: NDArray[np.float64]) -> NDArray[np.bool_]:
-        """``(n,) bool``: a vertex of some scene piece no larger than the grown tool
-        lies inside it (the piece may lie wholly inside, no surface crossing)."""
-        points = np.concatenate([t.piece_points[t.piece_diagonals <= grown.size]
-                                 for t in self.triangles.values()])
-        inside = np.zeros(len(tip), dtype=bool)
-        if not len(points) or not len(tip):
-            return inside
-        chunk = max(1, 1_000_000 // len(points))  # postures x points per block
-        for a in range(0, len(tip), chunk):
-            rel = points[None, :, :] - tip[a:a + chunk, None, :]
-            ax = axis[a:a + chunk]
-            height = np.einsum("npk,nk->np", rel, ax)
-            radial = np.linalg.norm(rel - height[..., None] * ax[:, None, :], axis=-1)
-            for outline in grown.outlines:
-                r, z = outline[:, 0], outline[:, 1]
-                within = (height >= z[0]) & (height <= z[-1])
-                inside[a:a + chunk] |= (within & (radial <= np.interp(height, z, r))).any(axis=1)
-        return inside
