@@ -1,6 +1,11 @@
 """Whole roughing run per fixture: wall time, UMRs, checks, Table 1 (nominal and limited).
 
-Run: ``.venv/bin/python benchmarks/bench_roughing.py [--coarse] [--fixture NAME ...]``.
+Run: ``.venv/bin/python benchmarks/bench_roughing.py [--coarse] [--fixture NAME ...]
+[--baseline-layering depth]``.
+
+``--baseline-layering depth`` gives the five-axis baseline the 3+2 plan's layers by
+milling depth instead of the paper's eq. 2 layers (docs/roughing.md, session 9): the
+comparison with the layering alike.
 """
 
 from __future__ import annotations
@@ -23,8 +28,11 @@ def main() -> None:
                         help="2 mm stations, 1 mm scallop (the acceptance test's options)")
     parser.add_argument("--fixture", action="append", choices=sorted(CASES),
                         help="fixture(s) to run (default: all)")
+    parser.add_argument("--baseline-layering", choices=("ruling", "depth"), default="ruling",
+                        help="layers of the five-axis baseline (default: eq. 2, the paper's)")
     args = parser.parse_args()
     options: dict[str, Any] = {"step_along_mm": 2.0, "scallop_mm": 1.0} if args.coarse else {}
+    options["baseline_layering"] = args.baseline_layering
     for fixture in args.fixture or list(CASES):
         tool = CASES[fixture]
         with tempfile.TemporaryDirectory() as tmp:

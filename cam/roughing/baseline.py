@@ -38,6 +38,7 @@ from scipy.spatial import cKDTree
 from trimesh.triangles import closest_point
 
 from cam.collision.triangle_bvh import TriangleBVH
+from cam.roughing.layers import repeats_layer_above
 from cam.roughing.linking import LinkSettings
 from cam.roughing.passage import PassageGrid
 from cam.roughing.plan import Segment, clear_distance, cutting_runs, direct_kind, oriented_run
@@ -201,7 +202,7 @@ def five_axis_baseline(grid: PassageGrid, blank: Blank, tool: Tool, eta: float,
     flat, pushed = push_clear(grid.centres.reshape(-1, 3), triangles, rho, bvh=bvh)
     centres = flat.reshape(grid.centres.shape)
     axes = np.ascontiguousarray(np.broadcast_to(axis_pts[None], centres.shape))
-    keep = blank.touches(centres, radius)
+    keep = blank.touches(centres, radius) & ~repeats_layer_above(grid.centres)
     flat_axes, tilted, unresolved = retilt(centres[keep], axes[keep], tool, triangles,
                                            eta + (rho - radius - eta), bvh=bvh)
     axes = axes.copy()

@@ -148,7 +148,8 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
     regions: list[tuple[UMR, PassageGrid, LinkSettings, ZMap]] = []
     for lane_index, lane in enumerate(lanes):
         grid = passage_grid(surfaces, radius, eta, scallop=options.scallop_mm,
-                            max_depth=depth, step_along=options.step_along_mm, lane=lane)
+                            max_depth=depth, step_along=options.step_along_mm, lane=lane,
+                            layering=options.umr_layering)
         floor += float(grid.floor_area.sum())
         lane_umrs = partition_passage(grid, lane.suction, triangles, rho,
                                       reach_tolerance=options.reach_tolerance_mm,
@@ -167,8 +168,11 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
                             stock_map(umr.frame, grid, closed_tri, radius)))
         base_links = LinkSettings(options.clearance_mm, options.entry_height_mm,
                                   options.entry_angle_deg, np.inf, options.lift_mm)
-        base = five_axis_baseline(grid, blank, tool, eta, base_links, options.direct_link_mm,
-                                  triangles, rho)
+        base_grid = grid if options.baseline_layering == grid.layering else passage_grid(
+            surfaces, radius, eta, scallop=options.scallop_mm, max_depth=depth,
+            step_along=options.step_along_mm, lane=lane, layering=options.baseline_layering)
+        base = five_axis_baseline(base_grid, blank, tool, eta, base_links,
+                                  options.direct_link_mm, triangles, rho)
         base.notes["lane"] = float(lane_index)
         base0.append(base)
     visits = layer_visits([g.n1 for _, g, _, _ in regions], options.layers_per_visit)

@@ -6,6 +6,7 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from cam.roughing.layers import LAYERINGS
 from impeller_cam.errors import InputError
 from impeller_cam.options import options_from_mapping
 
@@ -69,6 +70,12 @@ class RoughOptions:
         tilted shank of one UMR reaches over the neighbouring UMR's part of the
         passage, so that part must be cut down to about the same layer first
         (docs/roughing.md, "Cut order").
+    umr_layering, baseline_layering : str
+        Cutting layers of the 3+2 plan and of the five-axis baseline: ``"depth"``
+        (steps of the longest ruling's depth, at most a_p, down every ruling to the
+        hub: the paper's three-axis layers "in terms of the milling depth a_p") or
+        ``"ruling"`` (eq. 2: ``n1`` equal steps down every ruling, thinner on the
+        short ones: the paper's five-axis layers). ``cam.roughing.layers``.
     """
 
     scallop_mm: float = 0.5
@@ -89,6 +96,8 @@ class RoughOptions:
     tessellation_mm: float = 0.05
     lift_mm: float = 1.0
     layers_per_visit: int = 1
+    umr_layering: str = "depth"
+    baseline_layering: str = "ruling"
 
     def __post_init__(self) -> None:
         positive = ("scallop_mm", "step_along_mm", "mesh_spacing_mm", "reach_tolerance_mm",
@@ -111,6 +120,10 @@ class RoughOptions:
         if self.design not in ("solid", "surfaces"):
             raise InputError("unknown design mesh source", field="design", value=self.design,
                              accepted="solid, surfaces")
+        for name in ("umr_layering", "baseline_layering"):
+            if getattr(self, name) not in LAYERINGS:
+                raise InputError("unknown layering", field=name, value=getattr(self, name),
+                                 accepted=", ".join(LAYERINGS))
         if not (isinstance(self.layers_per_visit, int) and self.layers_per_visit >= 0):
             raise InputError("layers per visit must be a whole number >= 0",
                              field="layers_per_visit", value=self.layers_per_visit,

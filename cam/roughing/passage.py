@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from cam.roughing.layers import layer_count, layer_points
+from cam.roughing.layers import LAYERINGS, depth_layer_points, layer_count, layer_points
 from cam.roughing.passes import interpolated_pass, pass_count, stepover
 from geometry.surfaces import PRESSURE, SUCTION, BladeSurface, ImpellerSurfaces
 
@@ -89,7 +89,9 @@ class PassageGrid:
     step : float
         Stepover w, mm.
     n1, n_s : int
-        Layer steps and pass intervals.
+        Layer steps (on the longest ruling) and pass intervals.
+    layering : str
+        ``"ruling"`` (eq. 2) or ``"depth"`` (``layers.depth_layer_points``).
     """
 
     centres: NDArray[np.float64]
@@ -100,6 +102,13 @@ class PassageGrid:
     step: float
     n1: int
     n_s: int
+    layering: str = "ruling"
+
+    @property
+    def depth(self) -> float:
+        """Layer step on the longest ruling, mm (every step of either layering is at
+        most this)."""
+        return float(np.linalg.norm(self.ruling, axis=-1).max()) / self.n1
 
 
 def _in_hub_normal(surfaces: ImpellerSurfaces, points: NDArray[np.float64],
@@ -115,7 +124,7 @@ def _in_hub_normal(surfaces: ImpellerSurfaces, points: NDArray[np.float64],
 
 def passage_grid(surfaces: ImpellerSurfaces, radius: float, eta: float, *,
                  scallop: float, max_depth: float, step_along: float,
-                 lane: Lane | None = None) -> PassageGrid:
+                 lane: Lane | None = None, layering: str = "ruling") -> PassageGrid:
     """Targets of a lane of passage 0 for a ball of ``radius`` with allowance ``eta`` (mm).
 
     Parameters
@@ -128,7 +137,13 @@ def passage_grid(surfaces: ImpellerSurfaces, radius: float, eta: float, *,
         Station spacing along the hub curve, mm.
     lane : Lane, optional
         Default: the first of ``passage_lanes``.
+    layering : str
+        ``"ruling"``: eq. 2, ``n1`` equal steps down every ruling; ``"depth"``: steps of
+        the longest ruling's depth down every ruling, stopping at the hub
+        (``layers.depth_layer_points``).
     """
+    if layering not in LAYERINGS:
+        raise ValueError(f"unknown layering {layering!r}")
     if lane is None:
         lane = passage_lanes(surfaces)[0]
     a, b = lane.pressure, lane.suction
@@ -157,7 +172,8 @@ def passage_grid(surfaces: ImpellerSurfaces, radius: float, eta: float, *,
     rul_p, rul_s = ps_p - px_p, ps_s - px_s
     ruling = np.stack([interpolated_pass(rul_p, rul_s, theta, float(x)) for x in lam])
     n1 = layer_count(float(np.linalg.norm(ruling, axis=-1).max()), max_depth)
-    centres = layer_points(hub_paths, ruling, n1)
+    layered = layer_points if layering == "ruling" else depth_layer_points
+    centres = layered(hub_paths, ruling, n1)
     # floor area per hub target: quad areas shared out to their four corners
     d_u = np.diff(hub_paths, axis=1)
     d_l = np.diff(hub_paths, axis=0)
@@ -166,4 +182,4 @@ def passage_grid(surfaces: ImpellerSurfaces, radius: float, eta: float, *,
     for di in (0, 1):
         for dj in (0, 1):
             area[di:di + quad.shape[0], dj:dj + quad.shape[1]] += 0.25 * quad
-    return PassageGrid(centres, ruling, u, lam, area, w, n1, n_s)
+    return PassageGrid(centres, ruling, u, lam, area, w, n1, n_s, layering)

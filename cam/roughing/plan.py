@@ -12,7 +12,9 @@ result about +Z for the other passages. Here:
   design triangle. A point is cut only where material is: its ball meets the blank,
   the drop lifts it less than one layer depth above its target (more means the
   target lies in a blade's shadow for this axis: the layer above already cut that
-  height), and it does not repeat the clamped height of the layer above. With the
+  height), and it does not repeat the clamped height of the layer above (nor the
+  target of the layer above: ``"depth"`` layering reaches the hub early on short
+  rulings, ``layers.depth_layer_points``). With the
   tool's shank steps, a point is also lifted until its shank and holder meet none of
   the stock left before the visit (``shank.ShankGuard``, which is then the drop
   surface of the visit's refined moves, direct links and entries too).
@@ -45,6 +47,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam.roughing.dropcutter import DropCutter, DropSurface
+from cam.roughing.layers import repeats_layer_above
 from cam.roughing.linking import LinkSettings, entry_moves, link_runs, refine_moves
 from cam.roughing.passage import PassageGrid
 from cam.roughing.passes import rotate_z, zigzag_order
@@ -166,7 +169,7 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
     targets = frame.to_frame(grid.centres[:, :, first_station:last_station + 1])
     floor = frame.cut_floor(targets.reshape(-1, 3)).reshape(targets.shape[:-1])
     z = np.maximum(targets[..., 2], floor)
-    depth = float(np.linalg.norm(grid.ruling, axis=-1).max()) / grid.n1
+    depth = grid.depth
     band = np.zeros(len(z), dtype=bool)
     band[slice(None) if layers is None else slice(layers[0], layers[1] + 1)] = True
     zmap = stock_map(frame, grid, blank_triangles, radius) if stock is None else stock
@@ -192,6 +195,7 @@ def region_segment(umr: UMR, grid: PassageGrid, blank: Blank, blank_triangles: N
     material = blank.touches(world, radius)
     repeated = np.zeros_like(clamped)
     repeated[1:] = clamped[1:] & clamped[:-1] & (z[1:] > z[:-1] - 0.25 * depth)
+    repeated |= repeats_layer_above(grid.centres[:, :, first_station:last_station + 1])
     shadow = lift > depth
     material &= band[:, None, None]
     keep = material & ~repeated & ~shadow

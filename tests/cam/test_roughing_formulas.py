@@ -8,7 +8,14 @@ import numpy as np
 import pytest
 
 from cam.roughing.dropcutter import DropCutter, frame_to_z
-from cam.roughing.layers import layer_axes, layer_count, layer_fractions, layer_points
+from cam.roughing.layers import (
+    depth_layer_points,
+    layer_axes,
+    layer_count,
+    layer_fractions,
+    layer_points,
+    repeats_layer_above,
+)
 from cam.roughing.options import RoughOptions
 from cam.roughing.passes import (
     interpolated_pass,
@@ -95,6 +102,26 @@ def test_eq2_eq3_layers() -> None:
     assert np.allclose(pts[:, 2], [11.0, 9.0, 7.0, 5.0, 3.0])
     axes = layer_axes(hub + ruling, pts[1:])
     assert np.allclose(axes, [0.0, 0.0, 1.0])
+
+
+def test_depth_layers_by_hand() -> None:
+    """Rulings of 8 and 3 mm up +Z, n1 = 4: steps of 8 / 4 = 2 mm below the shroud
+    on both; the short ruling reaches its hub after two steps (3 -> 1 -> 0) and
+    repeats it below (eq. 2 would step it by 0.75 mm)."""
+    hub = np.array([[0.0, 0.0, 0.0], [5.0, 0.0, 1.0]])
+    ruling = np.array([[0.0, 0.0, 8.0], [0.0, 0.0, 3.0]])
+    pts = depth_layer_points(hub, ruling, 4)
+    assert pts.shape == (5, 2, 3)
+    assert np.allclose(pts[:, 0, 2], [8.0, 6.0, 4.0, 2.0, 0.0])  # = eq. 2 on the longest
+    assert np.allclose(pts[:, 0], layer_points(hub, ruling, 4)[:, 0])
+    assert np.allclose(pts[:, 1, 2], [4.0, 2.0, 1.0, 1.0, 1.0])
+    assert np.allclose(pts[:, :, :2], hub[None, :, :2])
+    assert repeats_layer_above(pts).tolist() == [[False, False], [False, False],
+                                                 [False, False], [False, True],
+                                                 [False, True]]
+    assert not repeats_layer_above(layer_points(hub, ruling, 4)).any()
+    with pytest.raises(InputError, match="umr_layering"):
+        RoughOptions(umr_layering="planar")
 
 
 def test_eq5_to_eq9_passes() -> None:
@@ -223,6 +250,35 @@ def test_splitter_passage_has_three_lanes() -> None:
     nine = build_surfaces(load_spec(root / "fixtures/impellers/nine_blade/spec.toml"))
     assert [lane.name for lane in passage_lanes(nine)] == ["passage"]
 
+
+
+def test_depth_layers_of_the_nine_blade_passage() -> None:
+    """On nine_blade (rulings 15.7-37.6 mm, ball10, a_p = 5 mm: n1 = 8) the depth
+    layering steps every ruling by the longest one's 4.70 mm, never more than a_p,
+    keeps eq. 2's shroud and hub layers, and needs 27 % fewer layer points."""
+    from pathlib import Path
+
+    from cam.roughing.passage import passage_grid
+    from geometry.spec import load_spec
+    from geometry.surfaces import build_surfaces
+
+    root = Path(__file__).resolve().parents[2]
+    nine = build_surfaces(load_spec(root / "fixtures/impellers/nine_blade/spec.toml"))
+    grids = {lay: passage_grid(nine, 5.0, 0.5, scallop=1.0, max_depth=5.0, step_along=2.0,
+                               layering=lay) for lay in ("ruling", "depth")}
+    ruling, depth = grids["ruling"], grids["depth"]
+    assert ruling.n1 == depth.n1 == 8
+    assert depth.depth == pytest.approx(ruling.depth) and depth.depth <= 5.0
+    assert np.allclose(depth.centres[0], ruling.centres[0])  # shroud
+    assert np.allclose(depth.centres[-1], ruling.centres[-1])  # hub
+    steps = np.linalg.norm(np.diff(depth.centres, axis=0), axis=-1)
+    assert steps.max() <= depth.depth + 1e-9
+    length = np.linalg.norm(depth.ruling, axis=-1)
+    # a ruling of length L is cut in ceil(L / d) steps (then repeats the hub point)
+    cut = (~repeats_layer_above(depth.centres)).sum(axis=0) - 1
+    assert np.array_equal(cut, np.ceil(length / depth.depth - 1e-9).astype(int))
+    saved = 1.0 - (cut + 1).sum() / ruling.centres[..., 0].size
+    assert 0.25 < saved < 0.30
 
 # --- linking, stock models and the five-axis re-tilt (hand-computed cases) ---------
 
