@@ -1,7 +1,8 @@
 """The paper's baseline: simultaneous five-axis roughing of the same passage.
 
-The same layers (eq. 2) and passes (eq. 9) as the 3+2 plan over the whole passage
-(all stations, no UMR split), cut with the axis at every point along the blended
+The paper's five-axis layers (eq. 2, option ``baseline_layering``; the 3+2 plan
+takes its layers by milling depth) and the 3+2 plan's passes (eq. 9) over the whole
+passage (all stations, no UMR split), cut with the axis at every point along the blended
 ruling (the ruling of eq. 3 interpolated between the two blade sides like the
 passes), the same material test (the ball meets the blank), the same layer order
 and the same link rules as the 3+2 plan (``linking.py``), along the tool axis:

@@ -7,8 +7,8 @@ offset by ``rho = R + eta`` along the side's normal turned into the hub's tangen
 plane, and by ``rho`` along the hub normal (``delta`` of eq. 6 taken along the hub
 normal, so the point is the centre of a ball of radius rho touching hub and blade).
 The general paths between them follow eq. 9; each path point is carried up the
-blended ruling in ``n1`` layers by eq. 2. Every other passage is this one turned by
-``k * pitch`` about +Z.
+blended ruling in ``n1`` layers (eq. 2 or by milling depth, ``layers.py``). Every
+other passage is this one turned by ``k * pitch`` about +Z.
 
 **Lanes.** Without splitters the passage is one lane (blade 0's pressure side to
 blade 1's suction side, the whole camber). With a splitter (leading edge at the

@@ -4,7 +4,8 @@
 result about +Z for the other passages. Here:
 
 * **3+2 region** (``region_segment``): each UMR cuts the stations of its u-range in
-  the layers of one visit (eq. 2; ``layer_visits``: every UMR's upper layers
+  the layers of one visit (the grid's: by milling depth or eq. 2, ``layers.py``;
+  ``layer_visits``: every UMR's upper layers
   before any UMR's lower ones) and every pass (eq. 9), zigzag, in the UMR frame
   (axis = +Z). A CL
   point is the target's XY with the height ``max(target, drop)``, the drop-cutter
