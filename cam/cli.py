@@ -81,11 +81,23 @@ def rough_command(
     out: Annotated[Path, typer.Option("-o", "--out", help="Output folder.")],
     scallop: Annotated[float, typer.Option(help="Allowed scallop height, mm.")] = 0.5,
     passages: Annotated[int, typer.Option(help="Rough only the first N passages (0: all).")] = 0,
+    max_depth: Annotated[
+        float, typer.Option(help="Largest cutting depth per layer a_p, mm (0: tool radius).")
+    ] = 0.0,
+    step_along: Annotated[
+        float, typer.Option(help="CL point spacing along a pass, mm.")
+    ] = 1.0,
+    baseline_layering: Annotated[
+        str, typer.Option(help="Layers of the five-axis baseline: ruling (eq. 2, the "
+                          "paper's) or depth (the 3+2 plan's layers by milling depth).")
+    ] = "ruling",
 ) -> None:
     """Three-axis roughing by Unit Machining Regions (3+2): APT per UMR, rough.json."""
     from cam.roughing.command import run_rough
 
-    run_rough(spec, machine, tool, out, scallop_mm=scallop, passages=passages)
+    run_rough(spec, machine, tool, out, scallop_mm=scallop, passages=passages,
+              max_depth_mm=max_depth, step_along_mm=step_along,
+              baseline_layering=baseline_layering)
 
 
 @app.command("verify")
