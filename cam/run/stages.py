@@ -54,12 +54,28 @@ def geometry_stage(ctx: Context) -> None:
                  render=True, fillets=True)
 
 
+#: Roughing options the chain sets unless the spec's ``[machining.rough]`` does.
+#: ``umr_layering``: the 3+2 plan's layers by milling depth leave cusps of up to
+#: 0.6 mm where eq. 2's steps are thin (the outlet), and finishing keeps its shank
+#: and holder only ``roughed_stock`` from the design; on nine_blade the depth layers
+#: made the finish programs verify with 73 shank events (up to 0.76 mm, the neck just
+#: above the flutes in the blank skin over the trailing edges' tip corners; eq. 2's
+#: layers: 0). Until finishing checks its shank against the verified rough stock the
+#: chain keeps eq. 2's layers (docs/run.md, session 9).
+CHAIN_ROUGH_DEFAULTS: dict[str, Any] = {"umr_layering": "ruling"}
+
+
+def rough_options(ctx: Context) -> dict[str, Any]:
+    """The roughing options of the chain: ``CHAIN_ROUGH_DEFAULTS`` under the settings'."""
+    return {**CHAIN_ROUGH_DEFAULTS, **ctx.settings.rough}
+
+
 def rough_stage(ctx: Context) -> None:
-    """UMR roughing (``run_rough``) with the roughing tool."""
+    """UMR roughing (``run_rough``) with the roughing tool (``rough_options``)."""
     from cam.roughing.command import run_rough
 
     run_rough(ctx.spec, ctx.machine, ctx.settings.rough_tool, ctx.out / "rough",
-              progress=False, **ctx.settings.rough)
+              progress=False, **rough_options(ctx))
 
 
 def rough_allowance(ctx: Context) -> float:

@@ -113,6 +113,18 @@ def test_finishing_shank_and_holder_clear_the_stock_roughing_left(chain_small: P
     assert counts["holder_collision"] == 0 and counts["rapid_in_stock"] == 0, counts
 
 
+def test_the_chain_roughs_in_eq2_layers_unless_the_spec_says(chain_small: Path) -> None:
+    """The chain's default ``umr_layering = "ruling"`` (``stages.CHAIN_ROUGH_DEFAULTS``:
+    finishing assumes the stock eq. 2's layers leave); a spec or override wins."""
+    from cam.run.settings import resolve_settings
+    from cam.run.stages import Context, rough_options
+
+    assert load(chain_small, "rough/rough.json")["options"]["umr_layering"] == "ruling"
+    ctx = Context(SMALL_SPEC, CHAIN_MACHINE, chain_small,
+                  resolve_settings(SMALL_SPEC, rough={"umr_layering": "depth"}))
+    assert rough_options(ctx)["umr_layering"] == "depth"
+
+
 def test_verification_finds_no_holder_collision_and_no_rapid_in_stock(chain_small: Path
                                                                       ) -> None:
     """Roughing keeps every rapid's ball 0.25 mm clear of the stock it models
