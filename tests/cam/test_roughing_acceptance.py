@@ -216,8 +216,6 @@ def test_time_breakdown_as_measured(rough: tuple[Path, dict]) -> None:
         assert overhead3 > overhead5
         assert s3["plunge"]["moves"] > 2 * s5["plunge"]["moves"]
         assert s3["plunge"]["length_mm"] > s5["plunge"]["length_mm"]
-        # the time the shorter cutting path saves outweighs the extra overhead
-        assert s5["feed"]["nominal_min"] - s3["feed"]["nominal_min"] > overhead3 - overhead5
         # nominal times less the rapids (index moves included) scale with 1/feed
         rapid500 = split["3axis"]["500"]["rapid"]["nominal_min"]
         assert (doc["time_min"]["3axis"]["500"] - rapid500) / (
@@ -225,6 +223,34 @@ def test_time_breakdown_as_measured(rough: tuple[Path, dict]) -> None:
     for feed in FEEDS:  # limited times are never below nominal
         for plan in ("3axis", "5axis"):
             assert doc["time_limited_min"][plan][feed] >= doc["time_min"][plan][feed] - 1e-9
+
+
+def test_posted_programs_verify_clean_on_the_dexel_stock(rough: tuple[Path, dict],
+                                                        tmp_path: Path) -> None:
+    """Independent re-check of the layers by milling depth: every program posted
+    (LinuxCNC) and swept in order through the tri-dexel verification (1 mm here; the
+    chain uses 0.5) on the spec's blank: no gouge, no shank/holder in stock, no rapid
+    in stock, no over-travel, and the material removed (measured: 674,144 mm^3 at
+    1 mm; 674,224 at 0.5 mm, 99.65 % of what eq. 2's layers remove, docs/roughing.md)."""
+    import json
+
+    from cam.verify.command import VerifyOptions, run_verify
+    from postproc.command import post_text
+
+    out, doc = rough
+    programs = []
+    for op in doc["operations"]:
+        nc = tmp_path / (Path(op["apt"]).stem + ".ngc")
+        nc.write_text(post_text(out / op["apt"], MACHINE, post="linuxcnc"))
+        programs.append(nc)
+    allowance = doc["finishing_allowance_mm"] + doc["options"]["scallop_mm"]
+    run_verify(programs, MACHINE, "ball10", str(SPEC), SPEC, 1.0, tmp_path / "verify",
+               options=VerifyOptions(allowance=allowance, render=False), progress=False)
+    report = json.loads((tmp_path / "verify" / "verify.json").read_text())
+    counts = report["event_counts"]
+    for kind in ("gouge", "holder_collision", "rapid_in_stock", "overtravel"):
+        assert counts[kind] == 0, counts
+    assert report["removed_volume_mm3"] > 0.99 * 674_144.0
 
 
 def test_posts_into_program_rs274_accepts(rough: tuple[Path, dict], tmp_path: Path) -> None:
