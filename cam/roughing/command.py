@@ -168,11 +168,8 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
                             stock_map(umr.frame, grid, closed_tri, radius)))
         base_links = LinkSettings(options.clearance_mm, options.entry_height_mm,
                                   options.entry_angle_deg, np.inf, options.lift_mm)
-        base_grid = grid if options.baseline_layering == grid.layering else passage_grid(
-            surfaces, radius, eta, scallop=options.scallop_mm, max_depth=depth,
-            step_along=options.step_along_mm, lane=lane, layering=options.baseline_layering)
-        base = five_axis_baseline(base_grid, blank, tool, eta, base_links,
-                                  options.direct_link_mm, triangles, rho)
+        base = five_axis_baseline(grid.with_layering(options.baseline_layering), blank, tool,
+                                  eta, base_links, options.direct_link_mm, triangles, rho)
         base.notes["lane"] = float(lane_index)
         base0.append(base)
     visits = layer_visits([g.n1 for _, g, _, _ in regions], options.layers_per_visit)

@@ -102,6 +102,7 @@ def depth_layer_points(hub_points: NDArray[np.float64],
     with np.errstate(divide="ignore", invalid="ignore"):
         f = np.where(length[None] > 0.0, np.clip(1.0 - k * step / length[None], 0.0, 1.0),
                      0.0)
+    f[-1] = 0.0  # layer n1 is the hub (exactly: round-off leaves ~1e-16 on the longest)
     return np.asarray(hub_points[None] + f[..., None] * shroud_minus_hub[None])
 
 

@@ -22,7 +22,8 @@ the splitter's offset side, so they respect it.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -110,6 +111,21 @@ class PassageGrid:
         most this)."""
         return float(np.linalg.norm(self.ruling, axis=-1).max()) / self.n1
 
+    def with_layering(self, layering: str) -> PassageGrid:
+        """The same passes (hub paths, rulings, ``n1``) in ``layering``'s layers."""
+        if layering == self.layering:
+            return self
+        return replace(self, centres=_layered(layering)(self.centres[-1], self.ruling, self.n1),
+                       layering=layering)
+
+
+def _layered(layering: str) -> Callable[[NDArray[np.float64], NDArray[np.float64], int],
+                                        NDArray[np.float64]]:
+    """The layer function of ``layering`` (``layers.LAYERINGS``)."""
+    if layering not in LAYERINGS:
+        raise ValueError(f"unknown layering {layering!r}")
+    return layer_points if layering == "ruling" else depth_layer_points
+
 
 def _in_hub_normal(surfaces: ImpellerSurfaces, points: NDArray[np.float64],
                    normal: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
@@ -142,8 +158,7 @@ def passage_grid(surfaces: ImpellerSurfaces, radius: float, eta: float, *,
         the longest ruling's depth down every ruling, stopping at the hub
         (``layers.depth_layer_points``).
     """
-    if layering not in LAYERINGS:
-        raise ValueError(f"unknown layering {layering!r}")
+    layered = _layered(layering)
     if lane is None:
         lane = passage_lanes(surfaces)[0]
     a, b = lane.pressure, lane.suction
@@ -172,7 +187,6 @@ def passage_grid(surfaces: ImpellerSurfaces, radius: float, eta: float, *,
     rul_p, rul_s = ps_p - px_p, ps_s - px_s
     ruling = np.stack([interpolated_pass(rul_p, rul_s, theta, float(x)) for x in lam])
     n1 = layer_count(float(np.linalg.norm(ruling, axis=-1).max()), max_depth)
-    layered = layer_points if layering == "ruling" else depth_layer_points
     centres = layered(hub_paths, ruling, n1)
     # floor area per hub target: quad areas shared out to their four corners
     d_u = np.diff(hub_paths, axis=1)

@@ -270,7 +270,11 @@ def test_depth_layers_of_the_nine_blade_passage() -> None:
     assert ruling.n1 == depth.n1 == 8
     assert depth.depth == pytest.approx(ruling.depth) and depth.depth <= 5.0
     assert np.allclose(depth.centres[0], ruling.centres[0])  # shroud
-    assert np.allclose(depth.centres[-1], ruling.centres[-1])  # hub
+    assert np.array_equal(depth.centres[-1], ruling.centres[-1])  # hub, exactly
+    # re-layering keeps the passes: the same grid as built in the other layering
+    assert np.array_equal(ruling.with_layering("depth").centres, depth.centres)
+    assert np.array_equal(depth.with_layering("ruling").centres, ruling.centres)
+    assert depth.with_layering("depth") is depth
     steps = np.linalg.norm(np.diff(depth.centres, axis=0), axis=-1)
     assert steps.max() <= depth.depth + 1e-9
     length = np.linalg.norm(depth.ruling, axis=-1)
