@@ -39,7 +39,7 @@ def main() -> None:
             start = time.perf_counter()
             doc = run_rough(f"fixtures/impellers/{fixture}/spec.toml",
                             "fixtures/machines/trunnion-500.toml", tool, Path(tmp) / "o",
-                            progress=False, **options)
+                            progress=False, compare=True, **options)
             wall = time.perf_counter() - start
         poses = sum(op["poses"] for op in doc["operations"])
         print(f"{fixture} {tool}: {wall:.1f} s, UMRs {len(doc['umrs'])}, poses {poses}, "

@@ -91,13 +91,17 @@ def rough_command(
         str, typer.Option(help="Layers of the five-axis baseline: ruling (eq. 2, the "
                           "paper's) or depth (the 3+2 plan's layers by milling depth).")
     ] = "ruling",
+    compare: Annotated[
+        bool, typer.Option(help="Also plan, time and check the paper's simultaneous "
+                           "five-axis baseline and write its Table 1 (table1.md).")
+    ] = False,
 ) -> None:
     """Three-axis roughing by Unit Machining Regions (3+2): APT per UMR, rough.json."""
     from cam.roughing.command import run_rough
 
     run_rough(spec, machine, tool, out, scallop_mm=scallop, passages=passages,
               max_depth_mm=max_depth, step_along_mm=step_along,
-              baseline_layering=baseline_layering)
+              baseline_layering=baseline_layering, compare=compare)
 
 
 @app.command("verify")

@@ -182,6 +182,28 @@ def umr_section(folder: RunFolder) -> Section:
     return Section("umr", "Unit machining regions (UMR)", "\n".join(parts))
 
 
+def _comparison_table(nominal: dict[str, Any], limited: dict[str, Any],
+                      paper: dict[str, Any]) -> list[str]:
+    """Table 1 of the paper for a ``rough --compare`` run: 3+2 vs five-axis by feed."""
+    rows: list[list[Cell]] = []
+    for f in FEEDS:
+        rows.append([int(f), (nominal.get("3axis") or {}).get(f),
+                     (nominal.get("5axis") or {}).get(f),
+                     (limited.get("3axis") or {}).get(f) if limited else None,
+                     (limited.get("5axis") or {}).get(f) if limited else None,
+                     (paper.get("3axis") or {}).get(f), (paper.get("5axis") or {}).get(f)])
+    return [table(["Feed (mm/min)", "3-axis UMR (min)", "5-axis (min)",
+                   "3-axis UMR, machine limits (min)", "5-axis, machine limits (min)",
+                   "Paper: 3-axis UMR (min)", "Paper: 5-axis (min)"], rows, digits=2,
+                  caption="Roughing time: 3+2 UMR roughing vs simultaneous 5-axis "
+                          "roughing of the same regions"),
+            note("From rough/rough.json: \"time_min\" (nominal: path length / "
+                 "feed, rapids at the axis velocity limits), \"time_limited_min\" "
+                 "(the machine's velocity, acceleration and jerk limits and A/C "
+                 "indexing), \"paper_table1_min\" (the paper's Table 1, for "
+                 "comparison; a different impeller).")]
+
+
 def cycle_time_section(folder: RunFolder) -> Section:
     """Section 8: 3-axis UMR vs 5-axis roughing times at four feeds; program times."""
     parts: list[str] = []
@@ -193,24 +215,21 @@ def cycle_time_section(folder: RunFolder) -> Section:
         nominal = rough.get("time_min") or {}
         limited = rough.get("time_limited_min") or {}
         paper = rough.get("paper_table1_min") or {}
-        rows: list[list[Cell]] = []
-        for f in FEEDS:
-            three = (nominal.get("3axis") or {}).get(f)
-            five = (nominal.get("5axis") or {}).get(f)
-            rows.append([int(f), three, five,
-                         (limited.get("3axis") or {}).get(f) if limited else None,
-                         (limited.get("5axis") or {}).get(f) if limited else None,
-                         (paper.get("3axis") or {}).get(f), (paper.get("5axis") or {}).get(f)])
-        parts.append(table(["Feed (mm/min)", "3-axis UMR (min)", "5-axis (min)",
-                            "3-axis UMR, machine limits (min)", "5-axis, machine limits (min)",
-                            "Paper: 3-axis UMR (min)", "Paper: 5-axis (min)"], rows, digits=2,
-                           caption="Roughing time: 3+2 UMR roughing vs simultaneous 5-axis "
-                                   "roughing of the same regions"))
-        parts.append(note("From rough/rough.json: \"time_min\" (nominal: path length / "
-                          "feed, rapids at the axis velocity limits), \"time_limited_min\" "
-                          "(the machine's velocity, acceleration and jerk limits and A/C "
-                          "indexing), \"paper_table1_min\" (the paper's Table 1, for "
-                          "comparison; a different impeller)."))
+        if "5axis" in nominal:
+            parts += _comparison_table(nominal, limited, paper)
+        else:  # the chain's main job: no research baseline
+            rows: list[list[Cell]] = [
+                [int(f), (nominal.get("3axis") or {}).get(f),
+                 (limited.get("3axis") or {}).get(f) if limited else None] for f in FEEDS]
+            parts.append(table(["Feed (mm/min)", "3-axis UMR (min)",
+                                "3-axis UMR, machine limits (min)"], rows, digits=2,
+                               caption="Roughing time of the 3+2 UMR plan"))
+            parts.append(note("From rough/rough.json \"time_min\" (nominal: path length / "
+                              "feed, rapids at the axis velocity limits) and "
+                              "\"time_limited_min\" (the machine's limits and A/C "
+                              "indexing). The comparison with simultaneous five-axis "
+                              "roughing (the paper's Table 1) is made by `impeller-cam "
+                              "rough --compare`."))
     motion = folder.json("motion/motion.json")
     if motion is None:
         lack(parts, lost, folder.why_missing("motion/motion.json"))

@@ -10,7 +10,9 @@ Writes into OUT/ (all or nothing, ``staged_directory``):
   (postures, moves, index moves), ``min_allowance_mm``, ``time_min`` (``3axis`` /
   ``5axis`` by feed, nominal), ``time_limited_min`` (with the machine's limits),
   per-UMR times, the time breakdown by move kind (docs/formats.md);
-* ``table1.md``: the paper's Table 1 for the run.
+* ``table1.md``: the paper's Table 1 for the run (with ``compare``: the simultaneous
+  five-axis baseline is planned, timed and checked beside the 3+2 plan; without it,
+  as in the chain's main job, rough.json has the 3+2 plan alone).
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from cam.collision import CollisionScene
 from cam.finishing.scene import surface_meshes
 from cam.roughing.aircheck import rapid_checks
 from cam.roughing.baseline import five_axis_baseline
+from cam.roughing.checks import check_collisions, min_allowance
 from cam.roughing.dropcutter import DropCutter
 from cam.roughing.linking import LinkSettings
 from cam.roughing.options import FEEDS, RoughOptions
@@ -59,11 +62,6 @@ from postproc.apt import write_apt
 from postproc.toolpath import Cutter, MoveKind, Toolpath
 
 __all__ = ["RoughResult", "plan_roughing", "run_rough"]
-
-#: The drop-cutter leaves the ball exactly eta from the design triangles, and the
-#: collision service's tool meshes circumscribe the tool by up to ~0.05 mm: the
-#: cutter is checked grown by ``eta - CONTACT_MARGIN`` so a tangent ball is not a hit.
-CONTACT_MARGIN = 0.05
 
 #: The paper's Table 1 (minutes), quoted next to ours in rough.json.
 PAPER_TABLE1 = {
@@ -115,8 +113,9 @@ def design_meshes(surfaces: ImpellerSurfaces, options: RoughOptions
 
 
 def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
-                  progress: Any = None) -> RoughResult:
-    """UMR partition and 3+2 segments of every passage, plus the 5-axis baseline.
+                  progress: Any = None, compare: bool = False) -> RoughResult:
+    """UMR partition and 3+2 segments of every passage, plus (``compare``) the
+    simultaneous 5-axis baseline of the paper's Table 1 (else ``baseline`` is empty).
 
     The 3+2 segments come in ``layer_visits`` order: each UMR cuts
     ``options.layers_per_visit`` layers in every passage, then the next UMR, so a
@@ -166,12 +165,14 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
                                     options.entry_angle_deg, safe, options.lift_mm)
             regions.append((umr, grid, settings,
                             stock_map(umr.frame, grid, closed_tri, radius)))
-        base_links = LinkSettings(options.clearance_mm, options.entry_height_mm,
-                                  options.entry_angle_deg, np.inf, options.lift_mm)
-        base = five_axis_baseline(grid.with_layering(options.baseline_layering), blank, tool,
-                                  eta, base_links, options.direct_link_mm, triangles, rho)
-        base.notes["lane"] = float(lane_index)
-        base0.append(base)
+        if compare:
+            base_links = LinkSettings(options.clearance_mm, options.entry_height_mm,
+                                      options.entry_angle_deg, np.inf, options.lift_mm)
+            base = five_axis_baseline(grid.with_layering(options.baseline_layering), blank,
+                                      tool, eta, base_links, options.direct_link_mm,
+                                      triangles, rho)
+            base.notes["lane"] = float(lane_index)
+            base0.append(base)
     visits = layer_visits([g.n1 for _, g, _, _ in regions], options.layers_per_visit)
     for done, (span, r) in enumerate(visits):
         umr, grid, settings, zmap = regions[r]
@@ -254,126 +255,9 @@ def toolpaths(result: RoughResult) -> list[Toolpath]:
     return out
 
 
-def _index_poses(kins: Any, a: Segment, b: Segment, samples: int = 24
-                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Poses along the index move from the end of ``a`` to the start of ``b``.
-
-    The machine moves its joints on a straight line (a synchronised rapid), so the
-    tool sweeps the forward kinematics of the interpolated joints, not a line in W.
-    """
-    q = np.asarray(kins.inverse(np.stack([a.tip[-1], b.tip[0]]),
-                                np.stack([a.axis[-1], b.axis[0]])))
-    t = np.linspace(0.0, 1.0, samples)[:, None]
-    tip, axis = kins.forward(q[0][None] + t * (q[1] - q[0])[None])
-    return np.asarray(tip), np.asarray(axis)
-
-
-def check_collisions(scene: CollisionScene, result: RoughResult, eta: float,
-                     kins: Any = None) -> dict[str, Any]:
-    """Postures, all moves and index moves of the 3+2 plan; the baseline's moves.
-
-    * every posture of every passage: the cutter grown by ``eta - CONTACT_MARGIN``
-      and shank/holder closer than eta count as hits;
-    * every move (cutting, link, retract) of passage 0's segments by subdivision
-      (``check_motion``, 1 mm / 1 deg); the other passages are rotations of them by
-      the blade pitch, and their postures are all checked above;
-    * every index move between segments along the machine's joint-space path
-      (forward kinematics of the interpolated joints), when ``kins`` is given;
-    * the five-axis baseline's moves of passage 0 the same way (reported, not part
-      of ``collisions``).
-
-    Returns
-    -------
-    dict
-        ``collisions`` (3+2 hits), ``postures_checked``, ``moves_checked``,
-        ``index_moves_checked``, ``min_clearance_mm`` (shank+holder, capped at
-        max(eta, 1)), ``hits`` (list of {kind, umr, part, role}) and
-        ``baseline_collisions`` / ``baseline_moves_checked``.
-    """
-    grown = -(eta - CONTACT_MARGIN)
-    cap = max(eta, 1.0)
-    parts = ("cutter", "shank", "holder")
-    hits: list[dict[str, Any]] = []
-
-    def note(report: Any, what: str, umr: int) -> int:
-        bad = np.flatnonzero(report.blocked(eta))
-        for i in bad[:20].tolist():
-            part = int(report.part[i])
-            hits.append({"check": what, "umr": umr, "role": report.hit_role[i],
-                         "part": parts[part] if part >= 0 else "clearance < eta"})
-        return int(len(bad))
-
-    segs = result.segments
-    tips = np.concatenate([s.tip for s in segs])
-    axes = np.concatenate([s.axis for s in segs])
-    posture = scene.check_postures(result.tool, tips, axes, cutter_allowance=grown,
-                                   clearance_cap=cap)
-    bad = note(posture, "posture", -1)
-    clear = float(np.nanmin(posture.clearance)) if len(posture.clearance) else np.inf
-    moves = 0
-    for s in segs:
-        if s.passage != 0 or len(s.tip) < 2:
-            continue
-        motion = scene.check_motion(result.tool, s.tip, s.axis, max_step_mm=1.0,
-                                    max_step_deg=1.0, cutter_allowance=grown,
-                                    clearance_cap=cap)
-        bad += note(motion, "move", s.umr + 1)
-        moves += len(s.tip) - 1
-    index_moves = 0
-    if kins is not None:
-        for a, b in zip(segs[:-1], segs[1:], strict=True):
-            tip, axis = _index_poses(kins, a, b)
-            report = scene.check_postures(result.tool, tip, axis, cutter_allowance=grown,
-                                          clearance_cap=cap)
-            bad += note(report, "index", b.umr + 1)
-            index_moves += 1
-    base_bad = 0
-    base_moves = 0
-    for base in result.baseline:
-        if base.passage != 0:
-            continue
-        base_report = scene.check_motion(result.tool, base.tip, base.axis, max_step_mm=1.0,
-                                         max_step_deg=1.0, cutter_allowance=grown,
-                                         clearance_cap=cap)
-        base_bad += int(base_report.blocked(eta).sum())
-        base_moves += len(base.tip) - 1
-    return {"collisions": bad, "postures_checked": len(tips), "moves_checked": moves,
-            "index_moves_checked": index_moves, "min_clearance_mm": clear, "hits": hits,
-            "baseline_collisions": base_bad, "baseline_moves_checked": base_moves}
-
-
-def min_allowance(result: RoughResult, segments: list[Segment] | None = None) -> float:
-    """Smallest distance of the ball surface from the design triangles, mm.
-
-    Exact point-triangle distances (``cam.collision.triangle_bvh``) of the ball
-    centres of passage 0 (the other passages are rotations of it), at the poses and
-    at 3 points inside every cutting move, of ``segments`` (default: the 3+2 plan).
-    """
-    from cam.collision.triangle_bvh import TriangleBVH
-
-    radius = result.tool.radius
-    centres = []
-    for s in result.segments if segments is None else segments:
-        if s.passage != 0:
-            continue
-        c = s.tip + radius * s.axis
-        cut = (s.kind[1:] == MoveKind.FEED) | (s.kind[1:] == MoveKind.PLUNGE)
-        a, b = c[:-1][cut], c[1:][cut]
-        t = np.arange(1, 4)[:, None, None] / 4.0
-        centres += [c, (a[None] + t * (b - a)[None]).reshape(-1, 3)]
-    if not centres:
-        return float("nan")
-    points = np.concatenate(centres)
-    bvh = TriangleBVH(np.concatenate([np.asarray(m.triangles) for m in result.meshes.values()]))
-    d = bvh.distances(points, 4.0 * radius)
-    return float(d.min() - radius)
-
-
-
-
 def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
               library: str | Path | None = None, progress: bool | None = None,
-              check: bool = True, **options: Any) -> dict[str, Any]:
+              check: bool = True, compare: bool = False, **options: Any) -> dict[str, Any]:
     """Three-axis UMR roughing of an impeller: APT per UMR and rough.json.
 
     Parameters
@@ -392,6 +276,10 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
         Show a progress bar (default: when stderr is a terminal).
     check : bool
         Run the collision checks (python-fcl, holder included).
+    compare : bool
+        Also plan, time and check the paper's simultaneous five-axis baseline and
+        write its Table 1 (``table1.md``; the ``5axis`` entries of rough.json). The
+        chain's main job leaves it out: it is a research comparison, not a program.
     **options
         Fields of ``RoughOptions``.
 
@@ -423,29 +311,37 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
             if bar is not None:
                 bar.update(task, completed=done, total=total, description=name)
 
-        result = plan_roughing(surfaces, the_tool, opts, report)
+        result = plan_roughing(surfaces, the_tool, opts, report, compare=compare)
         paths = toolpaths(result)
-        three_nom, three_lim, per_umr, three_split = _times(result, the_machine, kins,
-                                                            result.segments)
-        five_nom, five_lim, _, five_split = _times(result, the_machine, kins, result.baseline)
+        plans = {"3axis": result.segments}
+        if compare:
+            plans["5axis"] = result.baseline
+        times = {name: _times(result, the_machine, kins, segs)
+                 for name, segs in plans.items()}
+        per_umr = times["3axis"][2]
         checks: dict[str, Any] = {"collisions": -1, "postures_checked": 0,
                                   "min_clearance_mm": float("nan")}
         if check:
             scene = CollisionScene(result.meshes)
             checks = check_collisions(scene, result, eta, kins)
         allowance = min_allowance(result)
-        base_allowance = min_allowance(result, result.baseline)
+        if compare:
+            checks["baseline_min_allowance_mm"] = min_allowance(result, result.baseline)
+        else:
+            for key in ("baseline_collisions", "baseline_moves_checked"):
+                checks.pop(key, None)
         if check:
             blank = Blank(surfaces)
-            checks.update(rapid_checks(result.segments, result.baseline, result.umrs, blank,
-                                       np.asarray(blank.closed_mesh().triangles),
-                                       the_tool.radius,
-                                       the_tool.stickout - the_tool.radius))
+            rapids = rapid_checks(result.segments, result.baseline, result.umrs, blank,
+                                  np.asarray(blank.closed_mesh().triangles),
+                                  the_tool.radius, the_tool.stickout - the_tool.radius)
+            checks.update({key: {plan: value[plan] for plan in plans}
+                           for key, value in rapids.items()})
     joints0 = [np.asarray(kins.inverse(u.frame.axis[None] * 0.0, u.axis[None]))[0]
                for u in result.umrs]
     umrs = []
     for u, j in zip(result.umrs, joints0, strict=True):
-        times = per_umr.get(u.index, {"nominal": {}, "limited": {}})
+        umr_times = per_umr.get(u.index, {"nominal": {}, "limited": {}})
         umrs.append({
             "index": u.index + 1,
             "lane": u.lane,
@@ -457,8 +353,8 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
             "A_deg": float(np.degrees(j[3])),
             "C_deg": float(np.degrees(j[4])),
             "area_mm2": u.area,
-            "time_min": times["nominal"],
-            "time_limited_min": times["limited"],
+            "time_min": umr_times["nominal"],
+            "time_limited_min": umr_times["limited"],
         })
     covered = sum(u.area for u in result.umrs)
     document: dict[str, Any] = {
@@ -468,6 +364,7 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
         "tool": {"name": the_tool.name, "number": the_tool.number,
                  "diameter_mm": the_tool.diameter},
         "options": opts.as_dict(),
+        "compare": compare,
         "d_min_mm": result.d_min,
         "r_max_mm": result.r_max,
         "finishing_allowance_mm": eta,
@@ -476,19 +373,18 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
         "umrs": umrs,
         **checks,
         "min_allowance_mm": allowance,
-        "baseline_min_allowance_mm": base_allowance,
-        "time_min": {"3axis": three_nom["nominal"], "5axis": five_nom["nominal"]},
-        "time_limited_min": {"3axis": three_lim["limited"], "5axis": five_lim["limited"]},
-        "paper_table1_min": PAPER_TABLE1,
-        "time_breakdown": {"3axis": three_split, "5axis": five_split},
-        "cut_points": {"3axis": sum(s.cut_points for s in result.segments),
-                       "5axis": sum(s.cut_points for s in result.baseline)},
+        "time_min": {plan: t[0]["nominal"] for plan, t in times.items()},
+        "time_limited_min": {plan: t[1]["limited"] for plan, t in times.items()},
+        "time_breakdown": {plan: t[3] for plan, t in times.items()},
+        "cut_points": {plan: sum(s.cut_points for s in segs) for plan, segs in plans.items()},
         "plan_notes": {"3axis": [dict(s.notes, umr=s.umr + 1) for s in result.segments
-                                 if s.passage == 0],
-                       "5axis": [dict(b.notes) for b in result.baseline
-                                 if b.passage == 0]},
+                                 if s.passage == 0]},
         "operations": [],
     }
+    if compare:
+        document["paper_table1_min"] = PAPER_TABLE1
+        document["plan_notes"]["5axis"] = [dict(b.notes) for b in result.baseline
+                                           if b.passage == 0]
     with staged_directory(out) as stage:
         for path in paths:
             name = f"{path.name}.apt"
@@ -496,6 +392,7 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
                       f"tool {the_tool.name}, 3+2 segments per passage")
             document["operations"].append({"apt": name, "poses": len(path),
                                            "segments": int(len(np.unique(path.segment)))})
-        write_text_atomic(stage / "table1.md", table1_markdown(document))
+        if compare:
+            write_text_atomic(stage / "table1.md", table1_markdown(document))
         write_text_atomic(stage / "rough.json", json.dumps(document, indent=2) + "\n")
     return document

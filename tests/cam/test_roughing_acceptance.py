@@ -13,6 +13,8 @@ from cam.roughing.command import run_rough
 from postproc.apt import read_apt
 from postproc.toolpath import MoveKind
 
+pytestmark = pytest.mark.slow  # the acceptance runs on a full-size fixture
+
 ROOT = Path(__file__).resolve().parents[2]
 SPEC = ROOT / "fixtures/impellers/nine_blade/spec.toml"
 MACHINE = ROOT / "fixtures/machines/trunnion-500.toml"
@@ -66,7 +68,7 @@ def design_stl_distance(spec: Path, centres: np.ndarray, tmp: Path, count: int =
 @pytest.fixture(scope="module")
 def rough(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
     out = tmp_path_factory.mktemp("rough") / "out"
-    doc = run_rough(SPEC, MACHINE, "ball10", out, progress=False, **COARSE)
+    doc = run_rough(SPEC, MACHINE, "ball10", out, progress=False, compare=True, **COARSE)
     return out, doc
 
 

@@ -24,6 +24,8 @@ from tests.cam.test_roughing_acceptance import (
     pose_and_move_centres,
 )
 
+pytestmark = pytest.mark.slow  # the acceptance runs on a full-size fixture
+
 ROOT = Path(__file__).resolve().parents[2]
 SPEC = ROOT / "fixtures/impellers/splitter/spec.toml"
 MACHINE = ROOT / "fixtures/machines/trunnion-500.toml"
@@ -34,7 +36,7 @@ COARSE: dict[str, Any] = {"step_along_mm": 3.0, "scallop_mm": 1.0, "max_depth_mm
 @pytest.fixture(scope="module")
 def rough(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
     out = tmp_path_factory.mktemp("rough_splitter") / "out"
-    doc = run_rough(SPEC, MACHINE, "ball6", out, progress=False, **COARSE)
+    doc = run_rough(SPEC, MACHINE, "ball6", out, progress=False, compare=True, **COARSE)
     return out, doc
 
 

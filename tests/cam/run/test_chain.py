@@ -20,7 +20,7 @@ from tests.cam.conftest import CHAIN_MACHINE, CHAIN_SETTINGS, SMALL_SPEC
 
 CONTRACT_FILES = [
     "run.json", "geometry/impeller.step", "geometry/impeller.stl", "geometry/geometry.json",
-    "geometry/impeller.png", "rough/rough.json", "rough/table1.md", "finish/finish.json",
+    "geometry/impeller.png", "rough/rough.json", "finish/finish.json",
     "finish/finish_junction.apt", "finish/finish_blade.apt", "finish/finish_hub.apt",
     "finish/scene.stl", "nc/post.json", "verify/rough/verify.json",
     "verify/rough/report.html", "verify/rough/verify.junit.xml", "verify/rough/stock.npz",
@@ -61,6 +61,19 @@ def test_every_stage_is_recorded_and_the_contract_files_exist(chain_small: Path)
     for rel in CONTRACT_FILES:
         assert (chain_small / rel).is_file(), rel
     assert not list(chain_small.rglob(".staging-*"))
+
+
+def test_the_main_job_plans_no_research_baseline(chain_small: Path) -> None:
+    """The five-axis baseline and Table 1 belong to ``impeller-cam rough --compare``
+    and the roughing benchmark: the chain plans, times and checks the 3+2 plan only."""
+    rough = load(chain_small, "rough/rough.json")
+    assert rough["compare"] is False
+    assert not (chain_small / "rough" / "table1.md").exists()
+    for field in ("time_min", "time_limited_min", "time_breakdown", "cut_points",
+                  "plan_notes", "rapids_in_stock"):
+        assert set(rough[field]) == {"3axis"}, field
+    assert "baseline_collisions" not in rough and "paper_table1_min" not in rough
+    assert rough["time_min"]["3axis"]["1000"] > 0
 
 
 def test_post_json_lists_rough_then_finish_programs(chain_small: Path) -> None:
