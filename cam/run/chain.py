@@ -27,7 +27,7 @@ from cam.run.record import (
 from cam.run.settings import resolve_settings
 from cam.run.stages import STAGE_FUNCTIONS, Context, stage_outputs
 from impeller_cam.errors import InputError
-from impeller_cam.progress import progress_bar
+from impeller_cam.progress import StageLog, progress_bar
 
 __all__ = ["impeller_name", "run_chain", "selected_stages"]
 
@@ -147,12 +147,15 @@ def run_chain(
     out.mkdir(parents=True, exist_ok=True)
     write_record(out, record)
     bar = progress_bar(progress)
-    with bar if bar is not None else nullcontext():
+    log = StageLog(record["impeller"]) if progress is None and bar is None else None
+    with bar if bar is not None else nullcontext(), log if log is not None else nullcontext():
         task = bar.add_task("chain", total=len(names)) if bar is not None else None
         for done, name in enumerate(names):
             if bar is not None:
                 bar.update(task, completed=done, description=f"{name} ({done + 1}/"
                            f"{len(names)})")
+            if log is not None:
+                log.start(name, done + 1, len(names))
             entry = entries[name]
             entry.pop("stale", None)
             meter = MemoryMeter()
@@ -166,12 +169,16 @@ def run_chain(
                 if not isinstance(error, InputError | KeyboardInterrupt):
                     entry["traceback"] = traceback.format_exc(limit=8)
                 write_record(out, record)
+                if log is not None:
+                    log.end("failed")
                 raise
             entry.update(status="done", seconds=round(meter.seconds, 3),
                          cpu_seconds=round(meter.cpu_seconds, 3),
                          peak_mb=round(meter.peak_mb, 1), peak_mb_kind=meter.kind,
                          outputs=stage_outputs(out, name), error=None)
             write_record(out, record)
+            if log is not None:
+                log.end()
         if bar is not None:
             bar.update(task, completed=len(names))
     return record
