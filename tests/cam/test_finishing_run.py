@@ -205,7 +205,6 @@ def check_run(document: dict[str, Any], out: Path, stl: Path, name: str) -> None
     assert json.loads((out / "finish.json").read_text()) == document
 
 
-@pytest.mark.slow
 def test_finish_small_every_passage_surfaces_scene(workdir: Path) -> None:
     out = workdir / "small-surfaces"
     document = finished("small", "surfaces", out)
@@ -230,8 +229,8 @@ def buildable(name: str) -> Any:
     return impeller
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("name", ["small", "nine_blade", "splitter"])
+@pytest.mark.parametrize("name", ["small", pytest.param("nine_blade", marks=pytest.mark.slow),
+                                  pytest.param("splitter", marks=pytest.mark.slow)])
 def test_finish_solid_scene(name: str, workdir: Path) -> None:
     """Acceptance on the built solid; the meshes are rebuilt from its STL export."""
     impeller = buildable(name)
@@ -270,7 +269,6 @@ def test_splitter_outlet_is_repaired_within_the_limits(workdir: Path) -> None:
     assert document["summary"]["normal_angle_violations"] == 0
 
 
-@pytest.mark.slow
 def test_finish_apt_posts_for_linuxcnc_and_rs274_accepts_it(workdir: Path) -> None:
     from postproc.command import run_post
     from tests.postproc.post_check import require_rs274

@@ -29,7 +29,6 @@ def _bvh(vertices: np.ndarray, faces: np.ndarray) -> fcl.CollisionObject:
     return fcl.CollisionObject(model, fcl.Transform())
 
 
-@pytest.mark.slow
 def test_d_min_agrees_with_mesh_to_mesh_distance() -> None:
     impeller = Impeller.from_spec(SMALL, fillets=False)
     figures = impeller.figures

@@ -162,7 +162,6 @@ def test_outline_is_a_g1_loop(small: Impeller, edges: tuple[str, str]) -> None:
 
 # -- the small impeller --------------------------------------------------------------
 
-@pytest.mark.slow
 def test_step_roundtrip_and_stl_volume(small: Impeller, tmp_path: Path) -> None:
     step = small.export_step(tmp_path / "i.step")
     stl = small.export_stl(tmp_path / "i.stl", tolerance=0.02)
@@ -174,7 +173,6 @@ def test_step_roundtrip_and_stl_volume(small: Impeller, tmp_path: Path) -> None:
     assert abs(volume(found[0]) - volume(small.solid)) / volume(small.solid) < 1e-6
 
 
-@pytest.mark.slow
 def test_step_output_is_deterministic(small: Impeller, tmp_path: Path) -> None:
     a = write_step(small.solid, tmp_path / "a.step").read_bytes()
     b = write_step(small.solid, tmp_path / "b.step").read_bytes()
@@ -182,7 +180,6 @@ def test_step_output_is_deterministic(small: Impeller, tmp_path: Path) -> None:
     assert b"1970-01-01T00:00:00" in a
 
 
-@pytest.mark.slow
 def test_every_face_has_a_role_and_every_segment_its_fillet(small: Impeller) -> None:
     counts = small.role_counts()
     assert sum(counts.values()) == len(small.built.part.faces)
@@ -210,7 +207,6 @@ def _exact_distance(points: np.ndarray, faces: list[TopoDS_Face], face_of_vertex
     return np.array(out)
 
 
-@pytest.mark.slow
 def test_rotation_by_pitch_maps_the_solid_onto_itself(small: Impeller) -> None:
     # Mesh vertices lie exactly on the B-rep faces; rotated by 2 pi / N they must lie
     # on the B-rep again: exact point-to-face distances (BRepExtrema) to the faces
@@ -234,7 +230,6 @@ def _surface_normal(face: TopoDS_Face, point: np.ndarray) -> np.ndarray:
     return np.array(props.Normal().Coord())
 
 
-@pytest.mark.slow
 def test_fillets_are_tangent_to_blade_and_hub(small: Impeller) -> None:
     part = small.built.part
     role_of = list(zip(part.faces, part.roles, strict=True))
@@ -265,7 +260,6 @@ def test_fillets_are_tangent_to_blade_and_hub(small: Impeller) -> None:
     assert worst["blade"] < 0.5 and worst["hub"] < 0.5, worst
 
 
-@pytest.mark.slow
 def test_fillet_faces_are_the_rolling_ball_envelope(small: Impeller) -> None:
     # A fillet face's first parameter is its outline segment's p. At 41 values of p
     # per face (most between the construction samples) the closed-form ball centre
@@ -291,7 +285,6 @@ def test_fillet_faces_are_the_rolling_ball_envelope(small: Impeller) -> None:
     assert max(errors) < 1e-3
 
 
-@pytest.mark.slow
 def test_no_fillet_faces_without_fillets(tmp_path: Path) -> None:
     impeller = Impeller.from_spec(FIXTURES / "small" / "spec.toml", fillets=False)
     assert is_valid(impeller.solid)

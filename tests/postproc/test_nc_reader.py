@@ -323,7 +323,6 @@ def test_read_nc_from_file(tmp_path: Path) -> None:
 _CANON_RE = re.compile(r"(STRAIGHT_TRAVERSE|STRAIGHT_FEED|ARC_FEED)\(([^)]*)\)")
 
 
-@pytest.mark.slow
 @pytest.mark.skipif(RS274 is None, reason="LinuxCNC rs274 not installed")
 def test_end_points_match_linuxcnc_rs274(tmp_path: Path) -> None:
     rng = np.random.default_rng(3)

@@ -39,7 +39,6 @@ def test_program_text_is_clean(name: str) -> None:
         assert text.endswith("M2\n") and "%" not in text
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(n for n in CASES if n.endswith(".ngc")))
 def test_golden_linuxcnc_programs_pass_rs274(name: str, tmp_path: Path) -> None:
     case = CASES[name]

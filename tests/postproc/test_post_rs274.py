@@ -36,7 +36,6 @@ def _post(machine_path: Path, options: PostOptions, apt: Path = OPS):
     return toolpaths, posted, get_post("linuxcnc").write(posted, options)
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("tcp", [False, True], ids=["joint", "tcp"])
 @pytest.mark.parametrize("tolerance", [0.01, 0.002])
 def test_rs274_reproduces_cl_poses(tmp_path: Path, tcp: bool, tolerance: float) -> None:
@@ -50,14 +49,12 @@ def test_rs274_reproduces_cl_poses(tmp_path: Path, tcp: bool, tolerance: float) 
         assert np.count_nonzero(posted.role == Role.INSERTED) > 0
 
 
-@pytest.mark.slow
 def test_rs274_trunnion_conventional_directions(tmp_path: Path) -> None:
     options = PostOptions(chordal_tolerance=0.005, angular_tolerance=radians(0.25))
     toolpaths, posted, text = _post(TRUNNION, options)
     check_against_rs274(posted, toolpaths, interpret(text, tmp_path))
 
 
-@pytest.mark.slow
 def test_crossing_a_zero_and_winding_c_has_no_rotary_jump(tmp_path: Path) -> None:
     """The spiral's axis passes through +Z (A = 0) while C turns 400 degrees."""
     toolpaths, posted, text = _post(SIM, PostOptions())
@@ -76,7 +73,6 @@ def test_crossing_a_zero_and_winding_c_has_no_rotary_jump(tmp_path: Path) -> Non
     assert posted.blocks.feed_mode[feeds][-1] == FeedMode.UNITS_PER_MINUTE  # the retract
 
 
-@pytest.mark.slow
 def test_3p2_segments_only_turn_rotaries_in_safety_blocks(tmp_path: Path) -> None:
     toolpaths, posted, text = _post(SIM, PostOptions())
     check_against_rs274(posted, toolpaths, interpret(text, tmp_path))
