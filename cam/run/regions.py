@@ -27,7 +27,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-__all__ = ["ACCEPTANCE_ROLES", "LabelledDesign", "closest_roles", "on_tip_edge",
+from cam.verify.deviation import Deviation
+
+__all__ = ["ACCEPTANCE_ROLES", "LabelledDesign", "closest_roles", "near_faces", "on_tip_edge",
            "passage_position", "region_summary", "role_table", "shroud_offset"]
 
 #: Roles whose surfaces the chain machines and acceptance checks (blade sides, hub).
@@ -64,23 +66,49 @@ def closest_roles(
     distance : (n,) float64
         Unsigned distance to the closest examined triangle, mm.
     """
-    import trimesh
+    from geometry.mesh_query import closest_of_candidates
 
+    triangles = np.ascontiguousarray(triangles, dtype=np.float64)
     tree = cKDTree(triangles.mean(axis=1))
     k = int(min(candidates, len(triangles)))
+    normals = np.zeros((len(triangles), 3))  # unsigned: any normal
     out_role = np.empty(len(points), dtype=roles.dtype)
     out_dist = np.empty(len(points))
     for s in range(0, len(points), CHUNK):
-        p = points[s:s + CHUNK]
+        p = np.ascontiguousarray(points[s:s + CHUNK], dtype=np.float64)
         _, idx = tree.query(p, k=k)
-        idx = np.asarray(idx).reshape(len(p), k)
-        q = trimesh.triangles.closest_point(triangles[idx.ravel()], np.repeat(p, k, axis=0))
-        dist = np.linalg.norm(np.repeat(p, k, axis=0) - q, axis=1).reshape(len(p), k)
-        best = np.argmin(dist, axis=1)
-        rows = np.arange(len(p))
-        out_role[s:s + CHUNK] = roles[idx[rows, best]]
-        out_dist[s:s + CHUNK] = dist[rows, best]
+        idx = np.ascontiguousarray(np.asarray(idx, np.int64).reshape(len(p), k))
+        dist, pick = closest_of_candidates(p, idx, triangles, normals, 0.0)
+        out_role[s:s + CHUNK] = roles[pick]
+        out_dist[s:s + CHUNK] = np.abs(dist)
     return out_role, out_dist
+
+
+def near_faces(triangles: NDArray[np.float64], points: NDArray[np.float64], within: float,
+               candidates: int = 16) -> NDArray[np.bool_]:
+    """Whether each point lies closer than ``within`` (mm) to one of ``triangles``.
+
+    Points whose nearest triangle centroid is farther than ``within`` plus the largest
+    centroid-to-vertex distance cannot be that close and are answered without the
+    exact query (most of a part's surface samples are far from its fillets).
+
+    Parameters
+    ----------
+    triangles : (t, 3, 3) float64
+    points : (n, 3) float64
+    """
+    out = np.zeros(len(points), dtype=bool)
+    if not len(triangles) or not len(points):
+        return out
+    centroids = triangles.mean(axis=1)
+    reach = float(np.linalg.norm(triangles - centroids[:, None], axis=2).max())
+    nearest, _ = cKDTree(centroids).query(points, k=1)
+    maybe = np.flatnonzero(np.asarray(nearest) <= within + reach)
+    if len(maybe):
+        _, distance = closest_roles(triangles, np.zeros(len(triangles), np.int8),
+                                    points[maybe], candidates)
+        out[maybe] = distance < within
+    return out
 
 
 def on_tip_edge(triangles: NDArray[np.float64], roles: NDArray[np.str_],
@@ -236,48 +264,49 @@ class LabelledDesign:
 
     Attributes
     ----------
-    triangles : (t, 3, 3) float64
-        Design triangles subdivided to edges <= 2 mm, mm.
-    roles : (t,) str
-        Face role of each (``Impeller.triangle_roles``).
     distance : DesignDistance
-        Signed distance from the closed design mesh.
+        Signed distance from the closed design mesh; the chain's verification runs use
+        this same object, so their deviations carry the closest face of every sample.
+    face_roles : (f,) str
+        Face role of each triangle of the design mesh (``Impeller.triangle_roles``).
+    triangles : (t, 3, 3) float64
+        The design triangles subdivided to edges <= 2 mm (``distance.triangles``), mm.
+    roles : (t,) str
+        Face role of each of those.
     meridional : tuple
         Hub and shroud contours (z, r) and the blades' edge points on them (z, r),
         for ``passage_position``.
     """
 
-    def __init__(self, spec: str | Path) -> None:
-        import trimesh
-
+    def __init__(self, spec: str | Path, impeller: Any = None) -> None:
         from cam.verify.deviation import DesignDistance
         from geometry.impeller import Impeller
 
-        impeller = Impeller.from_spec(spec)
+        if impeller is None:
+            impeller = Impeller.from_spec(spec)
         spec_ = impeller.spec
         edges = [c[[0, -1]][:, [2, 0]] for c in (spec_.hub_camber, spec_.shroud_camber)]
         self.meridional = (spec_.hub_contour, spec_.shroud_contour, edges[0], edges[1])
         mesh = impeller.mesh()
-        labels = np.asarray(impeller.triangle_roles())
-        v, f, index = trimesh.remesh.subdivide_to_size(
-            np.asarray(mesh.vertices), np.asarray(mesh.faces), max_edge=2.0,
-            return_index=True)
-        self.triangles = np.asarray(v, np.float64)[np.asarray(f, np.int64)]
-        self.roles = labels[np.asarray(index)]
+        self.face_roles = np.asarray(impeller.triangle_roles())
         self.distance = DesignDistance(np.asarray(mesh.vertices, np.float64),
                                        np.asarray(mesh.faces, np.int64))
+        self.triangles = self.distance.triangles
+        self.roles = self.face_roles[self.distance.source_face]
 
 
-def region_summary(design: LabelledDesign, stock_npz: str | Path, allowance: float,
+def region_summary(design: LabelledDesign, stock: str | Path | Deviation, allowance: float,
                    tolerance: float, near_fillet: float) -> dict[str, Any]:
-    """Per-role deviation of a saved stock from the spec's design.
+    """Per-role deviation of a verified stock from the spec's design.
 
     Parameters
     ----------
     design : LabelledDesign
         The design mesh with roles.
-    stock_npz : str or Path
-        A stock state written by ``run_verify`` (``stock.npz``).
+    stock : str, Path or Deviation
+        The deviation of the final stock as the verification computed it
+        (``run_verify(..., design_distance=design.distance)`` returns it), or a stock
+        state written by ``run_verify`` (``stock.npz``), whose samples are measured here.
     allowance : float
         Material meant to remain on machined faces (allowance + scallop), mm.
     tolerance : float
@@ -301,20 +330,23 @@ def region_summary(design: LabelledDesign, stock_npz: str | Path, allowance: flo
         ``acceptance`` {role: table} for blades and hub away from the fillets, and
         ``accepted`` (all of those within the limit, none gouged).
     """
-    from cam.verify.stock import Stock
+    if not isinstance(stock, Deviation) or stock.faces is None:
+        from cam.verify.stock import Stock
 
+        if isinstance(stock, Deviation):
+            points, moves = stock.points, stock.moves
+        else:
+            points, _, moves = Stock.load(Path(stock)).surface_samples()
+        signed, faces = design.distance.closest(points)
+        stock = Deviation(points, signed, moves, faces)
+    assert stock.faces is not None
+    points, signed, moves = stock.points, stock.distance, stock.moves
     triangles, labels = design.triangles, design.roles
-    stock = Stock.load(Path(stock_npz))
-    points, _, moves = stock.surface_samples()
-    signed = design.distance(points)
-    role, foot_distance = closest_roles(triangles, labels, points)
+    role = design.face_roles[stock.faces]
+    foot_distance = np.abs(signed)
     checked = np.isin(role, ACCEPTANCE_ROLES)
-    fillet = triangles[labels == "fillet"]
     near = np.zeros(len(points), dtype=bool)
-    if len(fillet) and checked.any():
-        _, to_fillet = closest_roles(fillet, np.full(len(fillet), "fillet"),
-                                     points[checked])
-        near[checked] = to_fillet < near_fillet
+    near[checked] = near_faces(triangles[labels == "fillet"], points[checked], near_fillet)
     position = passage_position(points, *design.meridional)
     between = (position >= 0.0) & (position <= 1.0)
     hub_contour, shroud_contour = design.meridional[0], design.meridional[1]

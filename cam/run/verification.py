@@ -79,25 +79,29 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
     resolution = ctx.settings.verify_resolution_mm
     tolerance = DEFAULT_TOLERANCES.gouge
     finish_radius = resolve_tool(ctx.settings.finish_tool).radius
+    # the design is built once: both runs and the per-face summary share its distance
+    design = LabelledDesign(ctx.spec)
     with _staged_folder(ctx.out / "verify") as stage:
-        run_verify(rough, ctx.machine, ctx.settings.rough_tool, str(ctx.spec), ctx.spec,
-                   resolution, stage / "rough",
-                   options=VerifyOptions(allowance=allow["rough"]), progress=False)
-        run_verify(finish, ctx.machine, ctx.settings.finish_tool,
-                   str(stage / "rough" / "stock.npz"), ctx.spec, resolution,
-                   stage / "finish", options=VerifyOptions(allowance=allow["finish"]),
-                   progress=False)
+        rough_deviation = run_verify(
+            rough, ctx.machine, ctx.settings.rough_tool, str(ctx.spec), ctx.spec, resolution,
+            stage / "rough", options=VerifyOptions(allowance=allow["rough"]), progress=False,
+            design_distance=design.distance)
+        finish_deviation = run_verify(
+            finish, ctx.machine, ctx.settings.finish_tool, str(stage / "rough" / "stock.npz"),
+            ctx.spec, resolution, stage / "finish",
+            options=VerifyOptions(allowance=allow["finish"]), progress=False,
+            design_distance=design.distance)
+        assert rough_deviation is not None and finish_deviation is not None
         _relocate(stage / "finish", str(ctx.out / "verify" / "rough" / "stock.npz"))
-        design = LabelledDesign(ctx.spec)
         regions = {
             "format": "impeller-cam regions 1",
             "resolution_mm": resolution,
             "finish_ball_radius_mm": finish_radius,
             "rough_allowance_mm": allow["rough"],
-            "rough": region_summary(design, stage / "rough" / "stock.npz", allow["rough"],
-                                    tolerance, finish_radius),
-            "finish": region_summary(design, stage / "finish" / "stock.npz",
-                                     allow["finish"], tolerance, finish_radius),
+            "rough": region_summary(design, rough_deviation, allow["rough"], tolerance,
+                                    finish_radius),
+            "finish": region_summary(design, finish_deviation, allow["finish"], tolerance,
+                                     finish_radius),
         }
         write_text_atomic(stage / "regions.json", json.dumps(regions, indent=2) + "\n")
     return regions

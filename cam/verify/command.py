@@ -193,7 +193,8 @@ def run_verify(
     *,
     options: VerifyOptions | None = None,
     progress: bool | None = None,
-) -> None:
+    design_distance: DesignDistance | None = None,
+) -> Deviation | None:
     """Verify NC programs in sequence on one stock; write the results into ``out``.
 
     Parameters
@@ -216,6 +217,16 @@ def run_verify(
         Tolerances (defaults documented there).
     progress : bool, optional
         Show a progress bar (default: only on a TTY).
+    design_distance : DesignDistance, optional
+        The signed distance from ``design``, already built (the chain builds the
+        design once for both of its runs and its per-face summary); ``design`` then
+        only names it, and the allowance comes from ``options``.
+
+    Returns
+    -------
+    Deviation or None
+        The final stock's surface samples with their signed distance from the design
+        and the design face closest to each (``None`` without a design).
 
     Raises
     ------
@@ -235,7 +246,8 @@ def run_verify(
     the_tool = resolve_tool(tool)
     shape = tool_shape(the_tool)
     read = [read_nc(p) for p in programs]  # all programs parse before any work
-    design_mesh = load_design(design) if design is not None else None
+    design_mesh = (load_design(design) if design is not None and design_distance is None
+                   else None)
     work = load_stock(stock, resolution)
     sweep_tol = opts.sweep_tolerance or 0.1 * work.pitch
     initial = work.volume()
@@ -278,12 +290,18 @@ def run_verify(
             bar.stop()
 
     deviation_summary: dict[str, Any] = {}
-    if design_mesh is not None:
-        vertices, faces, spec_allowance = design_mesh
+    deviation: Deviation | None = None
+    if design_mesh is not None or design_distance is not None:
+        if design_mesh is not None:
+            vertices, faces, spec_allowance = design_mesh
+            distance = DesignDistance(vertices, faces)
+        else:
+            assert design_distance is not None
+            distance, spec_allowance = design_distance, None
         allowance = opts.allowance if opts.allowance is not None else (spec_allowance or 0.0)
-        distance = DesignDistance(vertices, faces)
         points, _, moves_of = work.surface_samples()
-        deviation = Deviation(points, distance(points), moves_of)
+        signed, closest_face = distance.closest(points)
+        deviation = Deviation(points, signed, moves_of, closest_face)
         deviation_summary = deviation.summary()
         deviation_summary["allowance_mm"] = allowance
         found = _deviation_events(
@@ -329,6 +347,7 @@ def run_verify(
         "deviation": deviation_summary,
     }
     _write_outputs(Path(out), work, result, kept, [p.name for p in programs], images, renders)
+    return deviation
 
 
 def _write_outputs(

@@ -6,7 +6,7 @@ Signed distance
 positive outside the design (material left over), negative inside (material removed
 from the part: a gouge). The mesh is subdivided so no edge is longer than
 ``max_edge``; a KD-tree over triangle centroids gives ``candidates`` triangles per
-point, whose exact closest points (``trimesh.triangles.closest_point``) give the
+point, whose exact closest points (``geometry.mesh_query``, compiled) give the
 distance; the sign is that of ``(p - q) . n`` for the closest triangle (among equally
 close ones, within ``TIE`` mm, the one whose normal is best aligned with ``p - q``);
 inside answers deeper than ``EXACT_BELOW`` are confirmed by the mesh's ray parity
@@ -74,8 +74,9 @@ class DesignDistance:
     ) -> None:
         import trimesh
 
-        v, f = trimesh.remesh.subdivide_to_size(
-            np.asarray(vertices, np.float64), np.asarray(faces, np.int64), max_edge=max_edge
+        v, f, source = trimesh.remesh.subdivide_to_size(
+            np.asarray(vertices, np.float64), np.asarray(faces, np.int64), max_edge=max_edge,
+            return_index=True,
         )
         self.triangles = np.asarray(v, np.float64)[np.asarray(f, np.int64)]
         normals = np.cross(
@@ -87,8 +88,10 @@ class DesignDistance:
         # slivers (height below 1e-6 of the longest edge) have numerically arbitrary
         # normals and no area: they would only corrupt the sign
         keep = length > 2e-6 * longest**2
-        self.triangles = self.triangles[keep]
-        self.normals = normals[keep] / length[keep, None]
+        self.triangles = np.ascontiguousarray(self.triangles[keep])
+        self.normals = np.ascontiguousarray(normals[keep] / length[keep, None])
+        #: index of the input face each (subdivided) triangle lies in
+        self.source_face = np.asarray(source, np.int64)[keep]
         #: ray-parity confirmation of inside answers (a folded surface's nearest
         #: sheet can face inwards), on the mesh as given
         self.parity = MeshParity(np.asarray(vertices, np.float64)[np.asarray(faces, np.int64)])
@@ -100,7 +103,14 @@ class DesignDistance:
         self.reach = float(np.linalg.norm(self.triangles - centroids[:, None], axis=2).max())
 
     def __call__(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Signed distances (n,) of points (n, 3), mm: + outside, - inside the design.
+        """Signed distances (n,) of points (n, 3), mm: + outside, - inside the design
+        (``closest``)."""
+        return self.closest(points)[0]
+
+    def closest(self, points: NDArray[np.float64]
+                ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        """Signed distances (n,) of points (n, 3), mm, and the input face (n,) whose
+        triangle is closest (the one that gave the sign): + outside, - inside.
 
         Inside answers deeper than ``EXACT_BELOW`` (the gouge candidates) are made
         exact: the candidate set grows
@@ -112,44 +122,39 @@ class DesignDistance:
         """
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         out = np.empty(len(points))
+        face = np.empty(len(points), np.int64)
         for s in range(0, len(points), CHUNK):
             p = points[s : s + CHUNK]
-            d, far = self._signed(p, self.candidates)
+            d, far, tri = self._signed(p, self.candidates)
             k = self.candidates
             todo = np.flatnonzero((d < -EXACT_BELOW) & (far <= np.abs(d) + self.reach))
             while len(todo) and k < len(self.triangles):
                 k = min(4 * k, len(self.triangles))
-                d_k, far_k = self._signed(p[todo], k)
+                d_k, far_k, tri_k = self._signed(p[todo], k)
                 d[todo] = d_k
+                tri[todo] = tri_k
                 todo = todo[(d_k < -EXACT_BELOW) & (far_k <= np.abs(d_k) + self.reach)]
             deep = np.flatnonzero(d < -EXACT_BELOW)
             if len(deep):
                 outside = deep[~self.parity.inside(p[deep])]
                 d[outside] = -d[outside]
             out[s : s + CHUNK] = d
-        return out
+            face[s : s + CHUNK] = self.source_face[tri]
+        return out, face
 
     def _signed(
         self, p: NDArray[np.float64], k: int
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Signed distance over ``k`` candidates and the ``k``-th centroid distance."""
-        import trimesh
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+        """Signed distance over ``k`` candidates, the ``k``-th centroid distance and the
+        picked triangle (``geometry.mesh_query.closest_of_candidates``)."""
+        from geometry.mesh_query import closest_of_candidates
 
         far, idx = self.tree.query(p, k=k)
         far = np.asarray(far).reshape(len(p), k)[:, -1]
-        idx = np.asarray(idx).reshape(len(p), k)
-        rep = np.repeat(p, k, axis=0)
-        q = trimesh.triangles.closest_point(self.triangles[idx.ravel()], rep)
-        diff = (rep - q).reshape(len(p), k, 3)
-        dist = np.linalg.norm(diff, axis=2)
-        dot = np.einsum("nkc,nkc->nk", diff, self.normals[idx])
-        best = dist.min(axis=1)
-        close = dist <= best[:, None] + TIE
-        align = np.where(close, np.abs(dot) / np.maximum(dist, 1e-300), -1.0)
-        pick = np.argmax(align, axis=1)
-        sign = np.sign(dot[np.arange(len(p)), pick])
-        sign[sign == 0] = 1.0
-        return sign * best, far
+        idx = np.ascontiguousarray(np.asarray(idx, np.int64).reshape(len(p), k))
+        signed, tri = closest_of_candidates(np.ascontiguousarray(p), idx, self.triangles,
+                                            self.normals, TIE)
+        return np.asarray(signed), far, np.asarray(tri)
 
 
 @dataclass
@@ -164,11 +169,14 @@ class Deviation:
         Signed distance from the design, mm (+ material left, - gouged).
     moves : (n,) int32
         Global move index that made each sample (-1: initial stock).
+    faces : (n,) int64, optional
+        Index of the design mesh face closest to each sample (``DesignDistance.closest``).
     """
 
     points: NDArray[np.float64]
     distance: NDArray[np.float64]
     moves: NDArray[np.int32]
+    faces: NDArray[np.int64] | None = None
 
     def summary(self) -> dict[str, Any]:
         """Min, max, mean absolute deviation (mm) and sample count for verify.json."""

@@ -1,0 +1,78 @@
+"""The compiled closest-point kernel against trimesh and closed forms."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from geometry.mesh_query import closest_of_candidates, closest_point_on_triangle
+
+coords = arrays(np.float64, (4, 3), elements=st.floats(-50.0, 50.0, allow_nan=False,
+                                                       allow_infinity=False))
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(coords)
+def test_agrees_with_trimesh_on_proper_triangles(data: np.ndarray) -> None:
+    triangle, point = data[:3], data[3]
+    normal = np.cross(triangle[1] - triangle[0], triangle[2] - triangle[0])
+    edges = np.linalg.norm(triangle - np.roll(triangle, 1, axis=0), axis=1)
+    if np.linalg.norm(normal) < 1e-3 * edges.max() ** 2:  # slivers: trimesh's own answer
+        return                                            # is not exact there (below)
+    ours = closest_point_on_triangle(point[None], triangle[None])[0]
+    ref = trimesh.triangles.closest_point(triangle[None], point[None])[0]
+    assert np.linalg.norm(ours - point) == pytest.approx(np.linalg.norm(ref - point),
+                                                         abs=1e-9)
+
+
+def test_degenerate_triangles_are_their_segments() -> None:
+    """A triangle with two equal vertices is a segment: the closest point on it."""
+    rng = np.random.default_rng(7)
+    a, b = rng.normal(size=(200, 3)), rng.normal(size=(200, 3))
+    p = 3.0 * rng.normal(size=(200, 3))
+    triangles = np.stack([a, b, a], axis=1)
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.einsum("ij,ij->i", ab, ab), 0.0, 1.0)
+    expected = np.linalg.norm(p - (a + t[:, None] * ab), axis=1)
+    got = np.linalg.norm(p - closest_point_on_triangle(p, triangles), axis=1)
+    np.testing.assert_allclose(got, expected, atol=1e-12)
+
+
+def test_face_region_closed_form() -> None:
+    """Above the interior of a triangle in z = 0 the foot is the point's projection."""
+    triangle = np.array([[[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 10.0, 0.0]]])
+    point = np.array([[2.0, 3.0, -4.5]])
+    np.testing.assert_allclose(closest_point_on_triangle(point, triangle), [[2.0, 3.0, 0.0]])
+
+
+def test_closest_of_candidates_sign_and_pick() -> None:
+    """The nearer of two parallel unit squares' triangles, signed by its normal; at an
+    equally close shared edge the triangle whose normal points at the point decides."""
+    rng = np.random.default_rng(3)
+    tris = rng.normal(size=(40, 3, 3))
+    normals = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    points = 2.0 * rng.normal(size=(100, 3))
+    cand = np.tile(np.arange(40), (100, 1))
+    signed, pick = closest_of_candidates(points, cand, tris, normals, 0.0)
+    feet = trimesh.triangles.closest_point(np.repeat(tris[None], 100, 0).reshape(-1, 3, 3),
+                                           np.repeat(points, 40, axis=0))
+    dist = np.linalg.norm(np.repeat(points, 40, axis=0) - feet, axis=1).reshape(100, 40)
+    np.testing.assert_allclose(np.abs(signed), dist.min(axis=1), atol=1e-9)
+    foot = closest_point_on_triangle(points, tris[pick])
+    side = np.einsum("ij,ij->i", points - foot, normals[pick])
+    assert np.all(np.sign(side[np.abs(side) > 1e-9]) == np.sign(signed[np.abs(side) > 1e-9]))
+    # a shared edge: two triangles of a roof, the point above the ridge, nearer the
+    # right-hand slope's outside
+    roof = np.array([[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, -1.0, 0.0]],
+                     [[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 0.0]]])
+    n = np.cross(roof[:, 1] - roof[:, 0], roof[:, 2] - roof[:, 0])
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    n[n[:, 2] < 0] *= -1.0  # both slopes face up (outward)
+    d, which = closest_of_candidates(np.array([[0.5, 0.01, 3.0]]), np.array([[0, 1]]), roof,
+                                     n, 1e-6)
+    assert d[0] > 0 and which[0] == 1
