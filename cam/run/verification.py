@@ -82,15 +82,17 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
     # the design is built once: both runs and the per-face summary share its distance
     design = LabelledDesign(ctx.spec)
     with _staged_folder(ctx.out / "verify") as stage:
+        # the report shows the stock after the last program of each run
         rough_deviation = run_verify(
             rough, ctx.machine, ctx.settings.rough_tool, str(ctx.spec), ctx.spec, resolution,
-            stage / "rough", options=VerifyOptions(allowance=allow["rough"]), progress=False,
-            design_distance=design.distance)
+            stage / "rough",
+            options=VerifyOptions(allowance=allow["rough"], render_each_program=False),
+            progress=False, design_distance=design.distance)
         finish_deviation = run_verify(
             finish, ctx.machine, ctx.settings.finish_tool, str(stage / "rough" / "stock.npz"),
             ctx.spec, resolution, stage / "finish",
-            options=VerifyOptions(allowance=allow["finish"]), progress=False,
-            design_distance=design.distance)
+            options=VerifyOptions(allowance=allow["finish"], render_each_program=False),
+            progress=False, design_distance=design.distance)
         assert rough_deviation is not None and finish_deviation is not None
         _relocate(stage / "finish", str(ctx.out / "verify" / "rough" / "stock.npz"))
         regions = {

@@ -57,6 +57,9 @@ class VerifyOptions:
         for a mesh design).
     render : bool
         Write PNG renders (and embed them in report.html).
+    render_each_program : bool
+        Render the stock after every program (else only after the last one: a chain
+        with dozens of roughing programs shows the last state only).
     """
 
     sweep_tolerance: float | None = None
@@ -64,6 +67,7 @@ class VerifyOptions:
     gouge_tolerance: float = DEFAULT_TOLERANCES.gouge
     allowance: float | None = None
     render: bool = True
+    render_each_program: bool = True
 
 
 
@@ -281,7 +285,7 @@ def run_verify(
                 "removed_volume_mm3": round(before - after, 3),
                 "cycle_time_s": round(duration, 3),
             })
-            if opts.render:
+            if opts.render and (opts.render_each_program or index == len(programs) - 1):
                 png = _render_stock(work, f"after {path.name}")
                 renders[f"stock_{index + 1}_{path.stem}.png"] = png
                 images.append((f"stock after {path.name}", png))

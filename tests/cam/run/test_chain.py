@@ -76,6 +76,19 @@ def test_the_main_job_plans_no_research_baseline(chain_small: Path) -> None:
     assert rough["time_min"]["3axis"]["1000"] > 0
 
 
+def test_verify_renders_the_stock_after_the_last_program_only(chain_small: Path) -> None:
+    """The report shows the stock after each run's last program; the chain does not
+    render the state after each of its dozens of roughing programs."""
+    for stage in ("rough", "finish"):
+        count = len(nc_of(chain_small, stage))
+        pictures = sorted(p.name for p in (chain_small / "verify" / stage).glob("stock_*.png"))
+        assert len(pictures) == 1 and pictures[0].startswith(f"stock_{count}_"), pictures
+
+
+def nc_of(out: Path, operation: str) -> list[dict]:
+    return [p for p in load(out, "nc/post.json")["programs"] if p["operation"] == operation]
+
+
 def test_post_json_lists_rough_then_finish_programs(chain_small: Path) -> None:
     post = load(chain_small, "nc/post.json")
     rough = load(chain_small, "rough/rough.json")
