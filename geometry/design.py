@@ -36,11 +36,13 @@ from scipy.integrate import cumulative_trapezoid
 from scipy.interpolate import PchipInterpolator
 
 from geometry.camber import cylindrical_to_cartesian
+from geometry.design_schema import DesignFile
 from geometry.machining import read_machining
 from geometry.spec import EDGE_SHAPES, MIN_SPLINE_POINTS, ImpellerSpec
 from geometry.validate import check_spec_geometry
 from impeller_cam.atomic import staged_directory, write_text_atomic
 from impeller_cam.errors import InputError
+from impeller_cam.schema import load_toml, validate
 
 __all__ = [
     "ANGLE_LAWS",
@@ -479,11 +481,14 @@ def spec_toml_text(design: GeneratedDesign) -> str:
     )
 
 
-def write_generated(design: GeneratedDesign, folder: str | Path) -> Path:
+def write_generated(
+    design: GeneratedDesign, folder: str | Path, extra: dict[str, str] | None = None
+) -> Path:
     """Write ``spec.toml`` and the camber CSVs of ``design`` into ``folder`` atomically.
 
-    All files are staged and published together (``impeller_cam.atomic``). A stale
-    ``mid_camber.csv`` from an earlier non-ruled variant is removed.
+    All files (and the ``extra`` ones: name -> text) are staged and published together
+    (``impeller_cam.atomic``). A stale ``mid_camber.csv`` from an earlier non-ruled
+    variant is removed.
 
     Returns
     -------
@@ -495,6 +500,7 @@ def write_generated(design: GeneratedDesign, folder: str | Path) -> Path:
         _FILES["shroud"]: camber_csv_text(design.shroud_camber),
         _FILES["hub"]: camber_csv_text(design.hub_camber),
         "spec.toml": spec_toml_text(design),
+        **(extra or {}),
     }
     if design.midspan_camber is not None:
         texts[_FILES["midspan"]] = camber_csv_text(design.midspan_camber)
@@ -608,11 +614,10 @@ def load_design(path: str | Path) -> DesignParameters:
         raise InputError(
             "design file not found", file=path, value=str(path), accepted="an existing design TOML"
         )
+    data = load_toml(path, "design")
+    validate(DesignFile, data, path)
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
         return DesignParameters(**_design_kwargs(data, path))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
-        raise InputError(f"not valid TOML: {error}", file=path) from None
     except InputError as error:
         raise InputError(
             error.message, file=path, field=error.field, value=error.value, accepted=error.accepted

@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 from cam.run.stages import Context, nc_programs
 from impeller_cam.atomic import staged_directory, write_text_atomic
+from impeller_cam.data import data_path
 
 __all__ = ["COARSE_GRID", "SERVO_DT", "index_moves", "motion_outputs"]
 
@@ -38,7 +39,8 @@ COARSE_GRID = ((0.0, 115.0, 5.0), (10000.0, 30000.0, 5000.0), (200.0, 500.0, 50.
 #: Controller period of the servo simulation, s (coarser than the 250 us default:
 #: the feed-drive time constants are >= 5 ms; 1 ms keeps the chain quick).
 SERVO_DT = 1e-3
-PLANT = Path(__file__).resolve().parents[2] / "fixtures" / "motion" / "indexing_table.toml"
+#: The indexing-table plant shipped in the package (a copy of fixtures/motion/).
+PLANT = data_path("motion", "indexing_table.toml")
 
 
 def index_moves(joints: NDArray[np.float64], start: NDArray[np.float64]
