@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import sys
+import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,13 +23,15 @@ from pydantic import BaseModel
 from cam.motion.schema import FeedDriveFile, PlantFile
 from cam.tools_schema import ToolLibraryFile
 from geometry.design_schema import DesignFile
+from geometry.machining import MachiningSettings, read_machining
 from geometry.spec_schema import SpecFile
 from impeller_cam.errors import InputError
 from impeller_cam.options import options_model
-from impeller_cam.schema import declared, json_schema, load_toml
+from impeller_cam.schema import declared, json_schema, load_toml, with_file
 from postproc.machine_schema import MachineFile
 
-__all__ = ["KINDS", "InputKind", "check_file", "detect_kind", "schemas", "write_schemas"]
+__all__ = ["KINDS", "InputKind", "check_file", "check_options", "detect_kind", "schemas",
+           "write_schemas"]
 
 #: Where the JSON Schemas are shipped.
 SCHEMA_FOLDER = Path(__file__).resolve().parents[1] / "impeller_cam" / "schemas"
@@ -57,18 +60,29 @@ class InputKind:
     check: Callable[[Path], str]
 
 
-def _check_spec(path: Path) -> str:
+def check_options(machining: MachiningSettings, path: Path) -> None:
+    """Check the option tables ``[machining.rough]`` / ``[machining.finish]``.
+
+    Raises
+    ------
+    InputError
+        Naming ``machining.rough.<key>`` (or ``finish``) in ``path``.
+    """
     from cam.finishing.options import FinishOptions
     from cam.roughing.options import RoughOptions
-    from geometry.spec import load_spec
-    from impeller_cam.schema import with_file
 
-    spec = load_spec(path)
     for key, options in (("rough", RoughOptions), ("finish", FinishOptions)):
         try:
-            options.from_mapping(dict(getattr(spec.machining, key)))  # type: ignore[attr-defined]
+            options.from_mapping(dict(getattr(machining, key)))  # type: ignore[attr-defined]
         except InputError as error:
             raise with_file(error, path, f"machining.{key}") from None
+
+
+def _check_spec(path: Path) -> str:
+    from geometry.spec import load_spec
+
+    spec = load_spec(path)
+    check_options(spec.machining, path)
     return f"impeller {spec.name!r}: {spec.blades} blades, {spec.splitters} splitter(s)"
 
 
@@ -76,6 +90,7 @@ def _check_design(path: Path) -> str:
     from geometry.design import generate, load_design
 
     params = load_design(path)
+    check_options(read_machining(tomllib.loads(params.machining_toml)), path)
     generate(params)
     return f"design {params.name!r}: {params.blades} blades, law {params.angle_law}"
 
