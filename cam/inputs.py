@@ -30,8 +30,8 @@ from impeller_cam.options import options_model
 from impeller_cam.schema import declared, json_schema, load_toml, with_file
 from postproc.machine_schema import MachineFile
 
-__all__ = ["KINDS", "InputKind", "check_file", "check_options", "detect_kind", "schemas",
-           "write_schemas"]
+__all__ = ["KINDS", "InputKind", "check_file", "check_options", "check_run_inputs",
+           "detect_kind", "schemas", "write_schemas"]
 
 #: Where the JSON Schemas are shipped.
 SCHEMA_FOLDER = Path(__file__).resolve().parents[1] / "impeller_cam" / "schemas"
@@ -76,6 +76,31 @@ def check_options(machining: MachiningSettings, path: Path) -> None:
             options.from_mapping(dict(getattr(machining, key)))  # type: ignore[attr-defined]
         except InputError as error:
             raise with_file(error, path, f"machining.{key}") from None
+
+
+def check_run_inputs(spec: Path, machine: Path, **options: Any) -> None:
+    """Check every file ``impeller-cam run`` will read, before anything is written.
+
+    The spec (with its CSVs, geometry and option tables), the machine file and both
+    tools (``options``: the keyword arguments of ``cam.run.run_chain`` that
+    ``resolve_settings`` takes).
+
+    Raises
+    ------
+    InputError
+        The first problem.
+    """
+    from cam.run.settings import resolve_settings
+    from cam.tools import resolve_tool
+    from postproc.machine import load_machine
+
+    _check_spec(spec)
+    load_machine(machine)
+    keys = ("rough_tool", "finish_tool", "tool", "post", "rough", "finish",
+            "verify_resolution_mm", "tessellation_mm", "servo", "indexing_grid")
+    settings = resolve_settings(spec, **{k: v for k, v in options.items() if k in keys})
+    resolve_tool(settings.rough_tool)
+    resolve_tool(settings.finish_tool)
 
 
 def _check_spec(path: Path) -> str:

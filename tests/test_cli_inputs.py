@@ -142,3 +142,25 @@ def test_example_copy_is_independent(tmp_path: Path) -> None:
     from impeller_cam.data import example_folder
 
     assert (example_folder("small") / "spec.toml").is_file()
+
+
+@pytest.mark.parametrize(("old", "new", "extra"), [
+    ("fillet_radius_mm", "fillet_radus_mm", []),
+    ('rough_tool = "ball6"', 'rough_tool = "ball66"', []),
+    ("", "", ["-m", "no-such-machine"]),
+    ("", "", ["-t", "ball6_tapr"]),
+])
+def test_run_checks_every_input_before_writing(tmp_path: Path, old: str, new: str,
+                                               extra: list[str], capsys: Capture) -> None:
+    source = FIXTURES / "impellers" / "small"
+    for item in source.iterdir():
+        shutil.copyfile(item, tmp_path / item.name)
+    spec = tmp_path / "spec.toml"
+    spec.write_text(spec.read_text().replace(old, new, 1) if old else spec.read_text())
+    out = tmp_path / "out"
+    args = ["run", str(spec), "-m", "trunnion-500", "-o", str(out), *extra]
+    if "-m" in extra:
+        args = ["run", str(spec), "-o", str(out), *extra]
+    assert main(args) == 2
+    assert capsys.readouterr().err.startswith("impeller-cam: error: ")
+    assert not out.exists()

@@ -5,10 +5,11 @@
 * Indexing: the A/C index moves between UMRs (and passages) of the rough programs,
   each timed as a synchronised rapid with the machine's limits, and the paper's
   S-curve input search (M5, ``cam.motion.optimise``) on the bundled indexing-table
-  plant (fixtures/motion/indexing_table.toml: the machine file has no TDOF model of
-  its axes). The stroke searched is the longest index move, measured as its X/Y/Z
-  travel or the arc its A/C rotation sweeps at the impeller's outer radius, whichever
-  is longer (the plant is a linear table: an approximation, said so in motion.json).
+  plant (impeller_cam/data/motion/indexing_table.toml, a copy of fixtures/motion/: the
+  machine file has no TDOF model of its axes). The stroke searched is the longest index
+  move, measured as its X/Y/Z travel or the arc its A/C rotation sweeps at the
+  impeller's outer radius, whichever is longer (the plant is a linear table: an
+  approximation, said so in motion.json).
   The grid is coarse by default (S 0..115 step 5, A 10,000..30,000 step
   5,000, V 200..500 step 50: 4,200 profiles, seconds) - ``indexing_grid = "paper"``
   searches the paper's 4.8 million. Case I, best symmetric and best asymmetric
@@ -117,7 +118,8 @@ def _indexing(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
     positioning = data["positioning_time_s"]
     n = len(start)
     out.update({
-        "plant": "fixtures/motion/indexing_table.toml",
+        "plant": "indexing_table.toml (bundled: impeller_cam/data/motion, a copy of "
+                 "fixtures/motion)",
         "stroke_mm": stroke,
         "stroke_basis": "longest index move: X/Y/Z travel or the arc its A/C rotation "
                         f"sweeps at the impeller's outer radius ({radius:.1f} mm)",
