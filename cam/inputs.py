@@ -229,10 +229,9 @@ def _spec_schema() -> dict[str, Any]:
     schema = json_schema(SpecFile, KINDS["spec"].title, "Impeller spec; docs/formats.md")
     table = schema["$defs"]["MachiningTable"]["properties"]
     for key, options in (("rough", RoughOptions), ("finish", FinishOptions)):
-        inner = options_model(options).model_json_schema()
-        inner.pop("title", None)
-        inner["description"] = f"{options.__name__} fields (mm, deg)"
-        table[key] = {"anyOf": [inner, {"type": "null"}], "default": None}
+        inner = json_schema(options_model(options), key, f"{options.__name__} fields (mm, deg)")
+        inner.pop("$schema")
+        table[key] = inner
     return schema
 
 

@@ -27,6 +27,7 @@ from typing import Any, TypeVar
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 from pydantic.fields import FieldInfo
+from pydantic.json_schema import GenerateJsonSchema, JsonSchemaValue
 from pydantic_core import ErrorDetails
 
 from impeller_cam.errors import InputError
@@ -69,6 +70,7 @@ class Strict(BaseModel):
         allow_inf_nan=False,
         frozen=True,
         populate_by_name=False,
+        json_schema_extra={"minProperties": 1},
     )
 
     @model_validator(mode="before")
@@ -382,9 +384,26 @@ def load_toml(path: str | Path, kind: str) -> dict[str, Any]:
         raise InputError(f"not valid TOML: {error}", file=path) from None
 
 
+class _TomlSchema(GenerateJsonSchema):
+    """JSON Schema of a TOML file: TOML has no null, an optional key is just absent."""
+
+    def nullable_schema(self, schema: Any) -> JsonSchemaValue:
+        return self.generate_inner(schema["schema"])
+
+
+def _no_null_defaults(node: Any) -> Any:
+    if isinstance(node, dict):
+        return {k: _no_null_defaults(v) for k, v in node.items()
+                if not (k == "default" and v is None)}
+    if isinstance(node, list):
+        return [_no_null_defaults(v) for v in node]
+    return node
+
+
 def json_schema(model: type[BaseModel], title: str, describe: str) -> dict[str, Any]:
     """The JSON Schema (draft 2020-12) of a file declared by ``model``."""
-    schema = model.model_json_schema(mode="validation")
+    schema = _no_null_defaults(model.model_json_schema(mode="validation",
+                                                       schema_generator=_TomlSchema))
     schema["title"] = title
     schema["description"] = describe
     return {"$schema": "https://json-schema.org/draft/2020-12/schema", **schema}

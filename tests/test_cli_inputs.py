@@ -132,7 +132,7 @@ def test_json_schemas_are_up_to_date() -> None:
     holder = tools["$defs"]["ToolTable"]["properties"]["holder"]
     assert tools["$defs"]["ToolTable"]["additionalProperties"] is False and holder
     rough = generated["spec.schema.json"]["$defs"]["MachiningTable"]["properties"]["rough"]
-    assert "scallop_mm" in rough["anyOf"][0]["properties"]
+    assert "scallop_mm" in rough["properties"] and rough["additionalProperties"] is False
 
 
 def test_example_copy_is_independent(tmp_path: Path) -> None:
@@ -164,3 +164,22 @@ def test_run_checks_every_input_before_writing(tmp_path: Path, old: str, new: st
     assert main(args) == 2
     assert capsys.readouterr().err.startswith("impeller-cam: error: ")
     assert not out.exists()
+
+
+@pytest.mark.parametrize("kind", ["spec", "design", "machine", "tools", "plant", "feed-drive"])
+def test_fixtures_meet_their_json_schema_and_a_typo_does_not(kind: str) -> None:
+    import tomllib
+
+    import jsonschema
+
+    from cam.inputs import SCHEMA_FOLDER, check_file
+
+    schema = json.loads((SCHEMA_FOLDER / f"{kind}.schema.json").read_text())
+    validator = jsonschema.Draft202012Validator(schema)
+    files = [p for p in sorted(FIXTURES.glob("**/*.toml")) if check_file(p)[0] == kind]
+    assert files
+    for path in files:
+        data = tomllib.loads(path.read_text())
+        assert not list(validator.iter_errors(data)), path
+        data["colour"] = 1  # an unknown key at the top level
+        assert list(validator.iter_errors(data)), path
