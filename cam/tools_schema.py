@@ -67,7 +67,7 @@ class ToolTable(Strict):
     spindle_rpm: float | None = quantity(None, unit="1/min", gt=0, description="spindle speed")
     feed_mm_min: float | None = quantity(None, unit="mm/min", gt=0, description="cutting feed")
     holder: list[HolderSegmentTable] = quantity(
-        default_factory=list, description="holder segments from the nose upwards")
+        default_factory=list, min_length=1, description="holder segments from the nose upwards")
 
     @model_validator(mode="after")
     def _corner(self) -> ToolTable:

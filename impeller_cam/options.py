@@ -44,5 +44,5 @@ def options_from_mapping(cls: type[T], values: dict[str, Any], what: str) -> T:
     """
     if values:
         model = options_model(cls)  # type: ignore[arg-type]
-        validate(model, dict(values), root=f"the {what} options")
+        validate(model, dict(values), root=f"the {what} options", noun=f"{what} option")
     return cls(**values)

@@ -253,7 +253,8 @@ def _accepted(error: ErrorDetails, model: type[BaseModel] | None, key: Any) -> s
 
 
 def _message(
-    error: ErrorDetails, model: type[BaseModel], data: Any, file: Any, root: str
+    error: ErrorDetails, model: type[BaseModel], data: Any, file: Any, root: str,
+    noun: str = "key",
 ) -> InputError:
     loc = tuple(error["loc"])
     kind = error["type"]
@@ -264,7 +265,7 @@ def _message(
     if kind == "extra_forbidden":
         keys = declared(m) if (m := _model_at(model, parent)) else []
         near = suggest(str(key), keys)
-        text = f"unknown key {key!r} in {where}"
+        text = f"unknown {noun} {key!r}" + (f" in {where}" if parent or noun == "key" else "")
         text += f": did you mean {near!r}?" if near else ""
         return InputError(text, file=file, field=field, value=_short(value),
                           accepted=", ".join(keys) or None)
@@ -317,6 +318,7 @@ def validate(
     file: str | Path | None = None,
     at: tuple[str, ...] = (),
     root: str = "the top level",
+    noun: str = "key",
 ) -> M:
     """Validate parsed ``data`` against ``model``; one ``InputError`` on the first problem.
 
@@ -333,6 +335,8 @@ def validate(
         (``("axes", "X", "servo")``), for the field and table named in the error.
     root : str
         How the outermost table is called in messages.
+    noun : str
+        What an unknown top-level name is called (``"finishing option"``).
 
     Raises
     ------
@@ -348,7 +352,7 @@ def validate(
             for key in reversed(at):
                 data = {key: data}
             error = {**error, "loc": (*at, *error["loc"])}  # type: ignore[typeddict-item]
-        raise _message(error, _wrap(model, at), data, file, root) from None
+        raise _message(error, _wrap(model, at), data, file, root, noun) from None
 
 
 def _wrap(model: type[BaseModel], at: tuple[str, ...]) -> type[BaseModel]:
