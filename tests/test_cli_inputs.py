@@ -183,3 +183,12 @@ def test_fixtures_meet_their_json_schema_and_a_typo_does_not(kind: str) -> None:
         assert not list(validator.iter_errors(data)), path
         data["colour"] = 1  # an unknown key at the top level
         assert list(validator.iter_errors(data)), path
+
+
+def test_check_reads_a_linuxcnc_tool_table(tmp_path: Path, capsys: Capture) -> None:
+    table = tmp_path / "tool.tbl"
+    table.write_text("T1 P1 D6.0 Z40.0 ;6 mm ball\n")
+    assert main(["check", str(table)]) == 0
+    assert "ok (tools)" in capsys.readouterr().out
+    table.write_text("T1 P1 Z40.0\n")
+    assert main(["check", str(table)]) == 2
