@@ -26,6 +26,13 @@ app = typer.Typer(
 )
 
 
+def _machine(path: Path) -> Path:
+    """``-m``: a machine file, or the name of a bundled one (``trunnion-500``)."""
+    from impeller_cam.data import bundled
+
+    return bundled(path, "machines")
+
+
 @app.command("geometry")
 def geometry_command(
     spec: Annotated[Path, typer.Argument(help="Impeller spec (TOML).")],
@@ -48,7 +55,8 @@ def geometry_command(
 @app.command("finish")
 def finish_command(
     spec: Annotated[Path, typer.Argument(help="Impeller spec (TOML).")],
-    machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML.")],
+    machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML (or a "
+                                          "bundled one: trunnion-500, xyzac-trt).")],
     tool: Annotated[str, typer.Option("-t", "--tool", help="NAME or LIBRARY.toml:NAME.")],
     out: Annotated[Path, typer.Option("-o", "--out", help="Output folder.")],
     scallop: Annotated[float, typer.Option(help="Allowed scallop height, mm.")] = 0.02,
@@ -63,7 +71,7 @@ def finish_command(
 
     run_finish(
         spec,
-        machine,
+        _machine(machine),
         tool,
         out,
         plots=plots,
@@ -76,7 +84,8 @@ def finish_command(
 @app.command("rough")
 def rough_command(
     spec: Annotated[Path, typer.Argument(help="Impeller spec (TOML).")],
-    machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML.")],
+    machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML (or a "
+                                          "bundled one: trunnion-500, xyzac-trt).")],
     tool: Annotated[str, typer.Option("-t", "--tool", help="NAME or LIBRARY.toml:NAME.")],
     out: Annotated[Path, typer.Option("-o", "--out", help="Output folder.")],
     scallop: Annotated[float, typer.Option(help="Allowed scallop height, mm.")] = 0.5,
@@ -99,7 +108,7 @@ def rough_command(
     """Three-axis roughing by Unit Machining Regions (3+2): APT per UMR, rough.json."""
     from cam.roughing.command import run_rough
 
-    run_rough(spec, machine, tool, out, scallop_mm=scallop, passages=passages,
+    run_rough(spec, _machine(machine), tool, out, scallop_mm=scallop, passages=passages,
               max_depth_mm=max_depth, step_along_mm=step_along,
               baseline_layering=baseline_layering, compare=compare)
 
@@ -107,7 +116,8 @@ def rough_command(
 @app.command("verify")
 def verify_command(
     programs: Annotated[list[Path], typer.Argument(help="NC programs, run in order.")],
-    machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML.")],
+    machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML (or a "
+                                          "bundled one: trunnion-500, xyzac-trt).")],
     tool: Annotated[str, typer.Option("-t", "--tool", help="NAME or LIBRARY.toml:NAME.")],
     stock: Annotated[
         str, typer.Option("--stock", help="cylinder:D,H | spec TOML (its blank) | STL | .npz")
@@ -121,13 +131,14 @@ def verify_command(
     """Material-removal verification of NC programs: verify.json, report.html, JUnit."""
     from cam.verify.command import run_verify
 
-    run_verify(programs, machine, tool, stock, design, resolution, out)
+    run_verify(programs, _machine(machine), tool, stock, design, resolution, out)
 
 
 @app.command("post")
 def post_command(
     apt: Annotated[Path, typer.Argument(help="APT CLDATA file (workpiece frame).")],
-    machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML.")],
+    machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML (or a "
+                                          "bundled one: trunnion-500, xyzac-trt).")],
     out: Annotated[Path, typer.Option("-o", "--out", help="NC program to write.")],
     post: Annotated[
         str | None,
@@ -154,7 +165,7 @@ def post_command(
 
     run_post(
         apt,
-        machine,
+        _machine(machine),
         out,
         post=post,
         tcp=tcp,
@@ -168,7 +179,8 @@ def post_command(
 @app.command("run")
 def run_command(
     specs: Annotated[list[Path], typer.Argument(help="Impeller spec(s); several: a batch.")],
-    machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML.")],
+    machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML (or a "
+                                          "bundled one: trunnion-500, xyzac-trt).")],
     out: Annotated[Path, typer.Option("-o", "--out", help="Output folder.")],
     tool: Annotated[
         str | None, typer.Option("-t", "--tool", help="Tool for both operations "
@@ -209,13 +221,15 @@ def run_command(
                                    post=post,
                                    only=stage, start=start, **settings)
     if len(specs) == 1 and scheduler is None:
+        from cam.inputs import check_run_inputs
         from cam.run import run_chain
 
-        run_chain(specs[0], machine, out, **options)
+        check_run_inputs(specs[0], _machine(machine), **options)  # bad input: nothing written
+        run_chain(specs[0], _machine(machine), out, **options)
         return
     from cam.run import run_batch
 
-    summary = run_batch(list(specs), machine, out, scheduler=scheduler, workers=workers,
+    summary = run_batch(list(specs), _machine(machine), out, scheduler=scheduler, workers=workers,
                         **options)
     for entry in summary["specs"]:
         where = f" in stage {entry['stage']}" if entry["stage"] else ""
@@ -235,13 +249,45 @@ def posts_command() -> None:
     run_posts()
 
 
-def _mount_motion() -> None:
+def _version(show: bool) -> None:
+    if show:
+        from impeller_cam import __version__
+
+        typer.echo(f"impeller-cam {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _options(
+    version: Annotated[
+        bool, typer.Option("--version", callback=_version, is_eager=True,
+                           help="Print the version and exit.")
+    ] = False,
+) -> None:
+    """CAD/CAM for centrifugal impellers: geometry, roughing, finishing, post, verification."""
+
+
+def _mount() -> None:
+    from cam.cli_inputs import register
     from cam.motion.cli import motion_app
 
     app.add_typer(motion_app, name="motion")
+    register(app)
 
 
-_mount_motion()
+_mount()
+
+
+def _usage_errors() -> tuple[type[Exception], ...]:
+    """Click's usage-error base classes (typer may vendor its own click)."""
+    import click
+
+    kinds: list[type[Exception]] = [click.ClickException]
+    try:
+        from typer._click.exceptions import ClickException
+    except ImportError:  # pragma: no cover - typer without a vendored click
+        return tuple(kinds)
+    return (*kinds, ClickException)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -257,10 +303,8 @@ def main(argv: list[str] | None = None) -> int:
         typer.echo("impeller-cam: aborted", err=True)
         return 1
     except Exception as error:  # click usage errors are ClickException
-        import click
-
-        if isinstance(error, click.ClickException):
-            error.show()
+        if isinstance(error, _usage_errors()):
+            error.show()  # type: ignore[attr-defined]
             return 2
         if os.environ.get("IMPELLER_CAM_DEBUG"):
             raise

@@ -13,19 +13,20 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from cam.tools_schema import ToolLibraryFile, ToolTable
+from impeller_cam.data import data_path
 from impeller_cam.errors import InputError
+from impeller_cam.schema import load_toml, validate
 
 TOOL_SHAPES = ("ball", "flat", "bullnose")
 #: The library shipped with the project; ``-t NAME`` looks here.
-DEFAULT_LIBRARY = Path(__file__).resolve().parent.parent / "fixtures" / "tools" / "library.toml"
+DEFAULT_LIBRARY = data_path("tools", "library.toml")
 
 
 @dataclass(frozen=True)
@@ -145,71 +146,20 @@ class Tool:
         return np.vstack(points)
 
 
-def _number(
-    table: dict[str, Any],
-    key: str,
-    path: Path,
-    where: str,
-    minimum: float = 0.0,
-    default: Any = ...,
-) -> float:
-    if key not in table:
-        if default is ...:
-            raise InputError("required field is missing", file=path, field=f"{where}.{key}")
-        return float(default)
-    value = table[key]
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+def _tool_from_table(table: ToolTable, path: Path, index: int) -> Tool:
+    """A ``Tool`` from a validated ``[[tool]]`` table (cross-field checks here)."""
+    where = f"tool {table.name!r}"
+    radius = 0.5 * table.diameter_mm
+    corner = {"ball": radius, "flat": 0.0}.get(table.type, table.corner_radius_mm or 0.0)
+    if table.type == "bullnose" and corner >= radius:
         raise InputError(
-            "must be a finite number",
+            "bull-nose corner radius must be smaller than the radius",
             file=path,
-            field=f"{where}.{key}",
-            value=value,
-            accepted=f"a number > {minimum:g}",
+            field=f"{where}.corner_radius_mm",
+            value=corner,
+            accepted=f"0 < corner < {radius:g}",
         )
-    if value <= minimum:
-        raise InputError(
-            "out of range",
-            file=path,
-            field=f"{where}.{key}",
-            value=value,
-            accepted=f"a number > {minimum:g}",
-        )
-    return float(value)
-
-
-def _tool_from_table(table: dict[str, Any], path: Path, index: int) -> Tool:
-    name = table.get("name")
-    where = f"tool[{index}]" if not isinstance(name, str) else f"tool '{name}'"
-    if not isinstance(name, str) or not name:
-        raise InputError("every tool needs a name", file=path, field=f"{where}.name", value=name)
-    shape = table.get("type", "ball")
-    if shape not in TOOL_SHAPES:
-        raise InputError(
-            "unknown tool type",
-            file=path,
-            field=f"{where}.type",
-            value=shape,
-            accepted=" or ".join(TOOL_SHAPES),
-        )
-    diameter = _number(table, "diameter_mm", path, where)
-    radius = 0.5 * diameter
-    if shape == "ball":
-        corner = radius
-    elif shape == "flat":
-        corner = 0.0
-    else:
-        corner = _number(table, "corner_radius_mm", path, where)
-        if corner >= radius:
-            raise InputError(
-                "bull-nose corner radius must be smaller than the radius",
-                file=path,
-                field=f"{where}.corner_radius_mm",
-                value=corner,
-                accepted=f"0 < corner < {radius:g}",
-            )
-    flute = _number(table, "flute_length_mm", path, where)
-    shank_d = _number(table, "shank_diameter_mm", path, where, default=diameter)
-    stickout = _number(table, "stickout_mm", path, where)
+    flute, stickout = table.flute_length_mm, table.stickout_mm
     if stickout < flute or flute < corner:
         raise InputError(
             "stick-out must cover the flutes and the flutes the corner",
@@ -218,43 +168,33 @@ def _tool_from_table(table: dict[str, Any], path: Path, index: int) -> Tool:
             value=stickout,
             accepted=f"corner {corner:g} <= flute {flute:g} <= stick-out",
         )
-    number = table.get("number", index + 1)
-    if isinstance(number, bool) or not isinstance(number, int) or number < 0:
-        raise InputError(
-            "tool number must be a non-negative integer",
-            file=path,
-            field=f"{where}.number",
-            value=number,
-        )
     holder: list[Segment] = []
     z = stickout
-    for k, part in enumerate(table.get("holder", [])):
-        here = f"{where}.holder[{k}]"
-        length = _number(part, "length_mm", path, here)
-        d0 = _number(part, "bottom_diameter_mm", path, here, default=part.get("diameter_mm", ...))
-        d1 = _number(part, "top_diameter_mm", path, here, default=part.get("diameter_mm", d0))
-        holder.append(Segment("holder", z, z + length, 0.5 * d0, 0.5 * d1))
-        z += length
-    rpm = table.get("spindle_rpm")
-    feed = table.get("feed_mm_min")
+    for part in table.holder:
+        holder.append(Segment("holder", z, z + part.length_mm, 0.5 * part.bottom, 0.5 * part.top))
+        z += part.length_mm
     return Tool(
-        name=name,
-        number=int(number),
-        shape=shape,
-        diameter=diameter,
+        name=table.name,
+        number=index + 1 if table.number is None else table.number,
+        shape=table.type,
+        diameter=table.diameter_mm,
         corner_radius=corner,
         flute_length=flute,
-        shank_diameter=shank_d,
+        shank_diameter=table.shank_diameter_mm or table.diameter_mm,
         stickout=stickout,
         holder=tuple(holder),
-        spindle_rpm=None if rpm is None else _number(table, "spindle_rpm", path, where),
-        feed=None if feed is None else _number(table, "feed_mm_min", path, where),
-        taper_deg=_number(table, "taper_deg", path, where, minimum=-1e-12, default=0.0),
+        spindle_rpm=table.spindle_rpm,
+        feed=table.feed_mm_min,
+        taper_deg=table.taper_deg,
     )
 
 
 def load_tool_library(path: str | Path) -> dict[str, Tool]:
     """Read a TOML tool library (``[[tool]]`` tables) or a LinuxCNC ``.tbl``.
+
+    The TOML form is validated against ``cam.tools_schema.ToolLibraryFile``: an
+    unknown key (``[[tool.holdr]]``), a wrong type, a NaN or a non-positive length is
+    an ``InputError`` naming the tool, the key and the nearest valid key.
 
     Returns
     -------
@@ -271,17 +211,9 @@ def load_tool_library(path: str | Path) -> dict[str, Tool]:
         )
     if path.suffix == ".tbl":
         return read_linuxcnc_tbl(path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
-        raise InputError(f"not valid TOML: {error}", file=path) from None
-    tables = data.get("tool")
-    if not isinstance(tables, list) or not tables:
-        raise InputError(
-            "no [[tool]] tables", file=path, field="tool", accepted="one or more [[tool]] tables"
-        )
+    library = validate(ToolLibraryFile, load_toml(path, "tool library"), path)
     tools: dict[str, Tool] = {}
-    for i, table in enumerate(tables):
+    for i, table in enumerate(library.tool):
         tool = _tool_from_table(table, path, i)
         if tool.name in tools:
             raise InputError(

@@ -24,7 +24,6 @@ from __future__ import annotations
 import math
 import re
 import tomllib
-from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -36,11 +35,13 @@ from scipy.integrate import cumulative_trapezoid
 from scipy.interpolate import PchipInterpolator
 
 from geometry.camber import cylindrical_to_cartesian
+from geometry.design_schema import DesignFile
 from geometry.machining import read_machining
 from geometry.spec import EDGE_SHAPES, MIN_SPLINE_POINTS, ImpellerSpec
 from geometry.validate import check_spec_geometry
 from impeller_cam.atomic import staged_directory, write_text_atomic
 from impeller_cam.errors import InputError
+from impeller_cam.schema import load_toml, validate
 
 __all__ = [
     "ANGLE_LAWS",
@@ -479,11 +480,14 @@ def spec_toml_text(design: GeneratedDesign) -> str:
     )
 
 
-def write_generated(design: GeneratedDesign, folder: str | Path) -> Path:
+def write_generated(
+    design: GeneratedDesign, folder: str | Path, extra: dict[str, str] | None = None
+) -> Path:
     """Write ``spec.toml`` and the camber CSVs of ``design`` into ``folder`` atomically.
 
-    All files are staged and published together (``impeller_cam.atomic``). A stale
-    ``mid_camber.csv`` from an earlier non-ruled variant is removed.
+    All files (and the ``extra`` ones: name -> text) are staged and published together
+    (``impeller_cam.atomic``). A stale ``mid_camber.csv`` from an earlier non-ruled
+    variant is removed.
 
     Returns
     -------
@@ -495,6 +499,7 @@ def write_generated(design: GeneratedDesign, folder: str | Path) -> Path:
         _FILES["shroud"]: camber_csv_text(design.shroud_camber),
         _FILES["hub"]: camber_csv_text(design.hub_camber),
         "spec.toml": spec_toml_text(design),
+        **(extra or {}),
     }
     if design.midspan_camber is not None:
         texts[_FILES["midspan"]] = camber_csv_text(design.midspan_camber)
@@ -525,72 +530,40 @@ def _lookup(data: dict[str, Any], dotted: str) -> Any:
     return node
 
 
-def _numbers(value: Any, dotted: str, convert: Callable[[float], float] = float) -> Floats:
-    if _is_number(value):
-        value = [value]
-    if isinstance(value, str) or not isinstance(value, Sequence) or not all(map(_is_number, value)):
-        raise InputError(
-            "must be a list of numbers", field=dotted, value=value, accepted="[number, ...]"
-        )
-    return tuple(convert(float(x)) for x in value)
-
-
 def _design_kwargs(data: dict[str, Any], path: Path) -> dict[str, Any]:
-    """Constructor arguments of ``DesignParameters`` from parsed design.toml data."""
-    law = _lookup(data, "camber.law")
-    values_key = "beta_deg" if law == "blade_angle" else "theta_deg"
+    """Constructor arguments of ``DesignParameters`` from design.toml data.
+
+    ``data`` has been validated against ``geometry.design_schema.DesignFile`` (keys and
+    types); ranges and what needs several keys are checked by ``DesignParameters``.
+    """
+    values_key = "beta_deg" if _lookup(data, "camber.law") == "blade_angle" else "theta_deg"
     kwargs: dict[str, Any] = {"name": path.parent.name}
-    required = ["impeller.blades", "meridional.hub", "meridional.shroud", "hub.bore_radius_mm"]
     for line in ("shroud", "hub"):
-        required += [f"camber.{line}.m", f"camber.{line}.{values_key}"]
-    for dotted in required:
-        if _lookup(data, dotted) is ...:
-            raise InputError("required field is missing", field=dotted)
-    for line in ("shroud", "hub"):
-        control = _lookup(data, f"meridional.{line}")
-        if isinstance(control, str) or not isinstance(control, Sequence):
-            raise InputError(
-                "must be a list of [z, r] pairs",
-                field=f"meridional.{line}",
-                value=control,
-                accepted="[[z, r], ...]",
-            )
-        pairs = [_numbers(pair, f"meridional.{line}") for pair in control]
-        kwargs[f"{line}_control"] = tuple(tuple(pair) for pair in pairs)
-        kwargs[f"{line}_knots"] = _numbers(_lookup(data, f"camber.{line}.m"), f"camber.{line}.m")
-        kwargs[f"{line}_angle"] = _numbers(
-            _lookup(data, f"camber.{line}.{values_key}"),
-            f"camber.{line}.{values_key}",
-            math.radians,
-        )
+        angle = _lookup(data, f"camber.{line}.{values_key}")
+        if angle is ...:
+            raise InputError("required field is missing", field=f"camber.{line}.{values_key}",
+                             accepted=f"{values_key} = [...] at the knots m (camber.law)")
+        kwargs[f"{line}_control"] = tuple(tuple(map(float, p)) for p in data["meridional"][line])
+        kwargs[f"{line}_knots"] = tuple(map(float, _lookup(data, f"camber.{line}.m")))
+        kwargs[f"{line}_angle"] = tuple(math.radians(x) for x in angle)
         span = _lookup(data, f"meridional.{line}_blade")
         if span is not ...:
-            kwargs[f"{line}_blade"] = _numbers(span, f"meridional.{line}_blade")
-    constant, law_table = _lookup(data, "blade.thickness_mm"), _lookup(data, "blade.thickness")
-    if (constant is ...) == (law_table is ...):
-        raise InputError(
-            "give exactly one of thickness_mm or thickness",
-            field="blade",
-            accepted="thickness_mm = <mm> or thickness = { u = [...], mm = [...] }",
-        )
-    if constant is not ...:
-        kwargs["thickness_mm"] = _numbers(constant, "blade.thickness_mm") * 2
+            kwargs[f"{line}_blade"] = tuple(map(float, span))
+    blade = data["blade"]
+    if "thickness_mm" in blade:
+        kwargs["thickness_mm"] = (float(blade["thickness_mm"]),) * 2
     else:
-        for key in ("u", "mm"):
-            value = _lookup(data, f"blade.thickness.{key}")
-            kwargs[f"thickness_{key}"] = _numbers(
-                [] if value is ... else value, f"blade.thickness.{key}"
-            )
+        kwargs["thickness_u"] = tuple(map(float, blade["thickness"]["u"]))
+        kwargs["thickness_mm"] = tuple(map(float, blade["thickness"]["mm"]))
     for attr, (dotted, kind, _, _) in _SCALARS.items():
         value = _lookup(data, dotted)
         if value is not ...:
-            kwargs[attr] = math.radians(value) if kind == "deg" and _is_number(value) else value
+            kwargs[attr] = math.radians(value) if kind == "deg" else value
     for attr, (dotted, _) in {"name": ("impeller.name", ()), **_CHOICES}.items():
         value = _lookup(data, dotted)
         if value is not ...:
             kwargs[attr] = value
     if "machining" in data:
-        read_machining(data, path)
         kwargs["machining_toml"] = tomli_w.dumps({"machining": data["machining"]})
     return kwargs
 
@@ -604,15 +577,10 @@ def load_design(path: str | Path) -> DesignParameters:
         Naming the file, the dotted field and the value.
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError(
-            "design file not found", file=path, value=str(path), accepted="an existing design TOML"
-        )
+    data = load_toml(path, "design")
+    validate(DesignFile, data, path)
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
         return DesignParameters(**_design_kwargs(data, path))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
-        raise InputError(f"not valid TOML: {error}", file=path) from None
     except InputError as error:
         raise InputError(
             error.message, file=path, field=error.field, value=error.value, accepted=error.accepted

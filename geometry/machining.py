@@ -25,11 +25,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
-from impeller_cam.errors import InputError
+from pydantic import AfterValidator
 
-__all__ = ["MACHINING_KEYS", "MachiningSettings", "machining_of", "read_machining"]
+from impeller_cam.schema import Strict, load_toml, quantity, validate
+
+__all__ = ["MACHINING_KEYS", "MachiningSettings", "MachiningTable", "machining_of",
+           "read_machining", "settings_of"]
 
 #: Scalar keys of ``[machining]`` and what they accept.
 MACHINING_KEYS: dict[str, str] = {
@@ -73,13 +76,33 @@ class MachiningSettings:
     finish: dict[str, Any] = field(default_factory=dict)
 
 
-def _number(path: Path | None, key: str, value: Any, low: float, high: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) \
-            or not math.isfinite(value) or not low <= value <= high:
-        raise InputError("out of range" if isinstance(value, int | float) else
-                         "must be a number", file=path, field=f"machining.{key}",
-                         value=value, accepted=MACHINING_KEYS[key])
-    return float(value)
+def _scalar(value: Any) -> Any:
+    if isinstance(value, dict | list):
+        raise ValueError("an option value must be a number, string or boolean")
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ValueError("an option value must be finite")
+    return value
+
+
+Scalar = Annotated[Any, AfterValidator(_scalar)]
+
+
+class MachiningTable(Strict):
+    """Declaration of ``[machining]`` (``MACHINING_KEYS``; option sub-tables)."""
+
+    rough_tool: str | None = quantity(None, min_length=1, description=MACHINING_KEYS["rough_tool"])
+    finish_tool: str | None = quantity(None, min_length=1,
+                                       description=MACHINING_KEYS["finish_tool"])
+    post: str | None = quantity(None, min_length=1, description=MACHINING_KEYS["post"])
+    verify_resolution_mm: float | None = quantity(
+        None, unit="mm", ge=RESOLUTION_RANGE[0], le=RESOLUTION_RANGE[1],
+        description="dexel spacing of the verification")
+    tessellation_mm: float | None = quantity(None, unit="mm", ge=1e-4, le=10.0,
+                                             description="linear deflection of STL / render")
+    rough: dict[str, Scalar] | None = quantity(None, min_length=1,
+                                               description="RoughOptions fields (mm, deg)")
+    finish: dict[str, Scalar] | None = quantity(None, min_length=1,
+                                                description="FinishOptions fields (mm, deg)")
 
 
 def read_machining(data: dict[str, Any], path: Path | None = None) -> MachiningSettings:
@@ -102,51 +125,32 @@ def read_machining(data: dict[str, Any], path: Path | None = None) -> MachiningS
     InputError
         Unknown key, wrong type or out-of-range value, naming file, field and value.
     """
-    table = data.get("machining")
+    if "machining" not in data:
+        return MachiningSettings()
+    table = validate(_Document, {"machining": data["machining"]}, path).machining
+    return settings_of(table)
+
+
+class _Document(Strict):
+    machining: MachiningTable
+
+
+def settings_of(table: MachiningTable | None) -> MachiningSettings:
+    """``MachiningSettings`` of a validated ``[machining]`` table (``None``: empty)."""
     if table is None:
         return MachiningSettings()
-    if not isinstance(table, dict):
-        raise InputError("must be a table", file=path, field="machining", value=table,
-                         accepted="a TOML table [machining]")
-    accepted = ", ".join([*MACHINING_KEYS, *MACHINING_TABLES])
-    values: dict[str, Any] = {}
-    for key, value in table.items():
-        if key in MACHINING_TABLES:
-            if not isinstance(value, dict):
-                raise InputError("must be a table", file=path, field=f"machining.{key}",
-                                 value=value, accepted=f"a table [machining.{key}]")
-            for name, option in value.items():
-                if isinstance(option, dict | list):
-                    raise InputError("must be a number, string or boolean", file=path,
-                                     field=f"machining.{key}.{name}", value=option,
-                                     accepted="a scalar option value")
-            values[key] = dict(value)
-        elif key in ("rough_tool", "finish_tool", "post"):
-            if not isinstance(value, str) or not value.strip():
-                raise InputError("must be a non-empty string", file=path,
-                                 field=f"machining.{key}", value=value,
-                                 accepted=MACHINING_KEYS[key])
-            values[key] = value
-        elif key == "verify_resolution_mm":
-            values[key] = _number(path, key, value, *RESOLUTION_RANGE)
-        elif key == "tessellation_mm":
-            values[key] = _number(path, key, value, 1e-4, 10.0)
-        else:
-            raise InputError("unknown key", file=path, field=f"machining.{key}", value=value,
-                             accepted=accepted)
-    return MachiningSettings(**values)
+    return MachiningSettings(
+        rough_tool=table.rough_tool,
+        finish_tool=table.finish_tool,
+        post=table.post,
+        verify_resolution_mm=table.verify_resolution_mm,
+        tessellation_mm=table.tessellation_mm,
+        rough=dict(table.rough or {}),
+        finish=dict(table.finish or {}),
+    )
 
 
 def machining_of(path: str | Path) -> MachiningSettings:
     """Read only the ``[machining]`` table of a spec file (no geometry validation)."""
-    import tomllib
-
     path = Path(path)
-    if not path.is_file():
-        raise InputError("spec file not found", file=path, value=str(path),
-                         accepted="an existing impeller spec TOML")
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
-        raise InputError(f"not valid TOML: {error}", file=path) from None
-    return read_machining(data, path)
+    return read_machining(load_toml(path, "spec"), path)

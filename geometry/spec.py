@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import csv
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,11 +17,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import PchipInterpolator
 
-from geometry.machining import MachiningSettings, read_machining
+from geometry.machining import MachiningSettings, settings_of
+from geometry.spec_schema import MIN_SPLINE_POINTS, BladeTable, SpecFile
 from impeller_cam.errors import InputError
+from impeller_cam.schema import load_toml, validate
 
-#: Fewest points a cubic spline through data needs.
-MIN_SPLINE_POINTS = 4
 #: How far (mm) a camber point may lie off its meridional contour.
 CONTOUR_TOLERANCE = 0.05
 EDGE_SHAPES = ("round", "cut")
@@ -99,131 +98,6 @@ class ImpellerSpec:
             return np.full(u.shape, float(self.thickness_mm[0]))
         law = PchipInterpolator(self.thickness_u, self.thickness_mm, extrapolate=True)
         return np.asarray(law(np.clip(u, self.thickness_u[0], self.thickness_u[-1])))
-
-
-class _Reader:
-    """Typed access to a TOML table that reports the file and dotted field on error."""
-
-    def __init__(self, path: Path, data: dict[str, Any]) -> None:
-        self.path = path
-        self.data = data
-
-    def get(
-        self,
-        dotted: str,
-        default: Any = ...,
-    ) -> Any:
-        node: Any = self.data
-        for key in dotted.split("."):
-            if not isinstance(node, dict) or key not in node:
-                if default is ...:
-                    raise InputError("required field is missing", file=self.path, field=dotted)
-                return default
-            node = node[key]
-        return node
-
-    def number(
-        self,
-        dotted: str,
-        default: Any = ...,
-        *,
-        minimum: float | None = None,
-        strictly: bool = False,
-        maximum: float | None = None,
-    ) -> float:
-        value = self.get(dotted, default)
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise InputError(
-                "must be a number",
-                file=self.path,
-                field=dotted,
-                value=value,
-                accepted="a finite number",
-            )
-        value = float(value)
-        bound = ""
-        if minimum is not None:
-            bound = f"a number {'>' if strictly else '>='} {minimum:g}"
-        if maximum is not None:
-            bound += (" and " if bound else "a number ") + f"<= {maximum:g}"
-        accepted = bound or "a finite number"
-        if not math.isfinite(value):
-            raise InputError(
-                "must be finite", file=self.path, field=dotted, value=value, accepted=accepted
-            )
-        if minimum is not None and (value < minimum or (strictly and value == minimum)):
-            raise InputError(
-                "out of range", file=self.path, field=dotted, value=value, accepted=accepted
-            )
-        if maximum is not None and value > maximum:
-            raise InputError(
-                "out of range", file=self.path, field=dotted, value=value, accepted=accepted
-            )
-        return value
-
-    def integer(self, dotted: str, default: Any = ..., *, minimum: int, maximum: int) -> int:
-        value = self.get(dotted, default)
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise InputError(
-                "must be an integer",
-                file=self.path,
-                field=dotted,
-                value=value,
-                accepted=f"an integer {minimum}..{maximum}",
-            )
-        if not minimum <= value <= maximum:
-            raise InputError(
-                "out of range",
-                file=self.path,
-                field=dotted,
-                value=value,
-                accepted=f"an integer {minimum}..{maximum}",
-            )
-        return int(value)
-
-    def choice(self, dotted: str, options: tuple[str, ...], default: Any = ...) -> str:
-        value = self.get(dotted, default)
-        if value not in options:
-            raise InputError(
-                "unknown value",
-                file=self.path,
-                field=dotted,
-                value=value,
-                accepted=" or ".join(repr(o) for o in options),
-            )
-        return str(value)
-
-    def points(self, dotted: str, columns: int) -> NDArray[np.float64]:
-        value = self.get(dotted)
-        accepted = f"a list of at least {MIN_SPLINE_POINTS} [{', '.join(['number'] * columns)}]"
-        try:
-            arr = np.array(value, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise InputError(
-                "must be a list of number pairs",
-                file=self.path,
-                field=dotted,
-                value=_short(value),
-                accepted=accepted,
-            ) from None
-        if arr.ndim != 2 or arr.shape[1] != columns:
-            raise InputError(
-                "wrong shape", file=self.path, field=dotted, value=_short(value), accepted=accepted
-            )
-        if not np.all(np.isfinite(arr)):
-            row = int(np.argwhere(~np.isfinite(arr))[0, 0])
-            raise InputError(
-                f"non-finite value in point {row}",
-                file=self.path,
-                field=dotted,
-                value=arr[row].tolist(),
-                accepted=accepted,
-            )
-        if len(arr) < MIN_SPLINE_POINTS:
-            raise InputError(
-                f"too few points ({len(arr)})", file=self.path, field=dotted, accepted=accepted
-            )
-        return arr
 
 
 def _short(value: Any, limit: int = 60) -> str:
@@ -362,6 +236,10 @@ def _check_contour(path: Path, field: str, contour: NDArray[np.float64]) -> None
 def load_spec(path: str | Path) -> ImpellerSpec:
     """Read and validate an impeller spec TOML and the CSV files it references.
 
+    The document is validated against ``geometry.spec_schema.SpecFile`` (keys, types,
+    units, ranges: an unknown key such as ``fillet_radus_mm`` is refused with the
+    nearest valid key), then what needs several keys is checked here.
+
     Parameters
     ----------
     path : str or Path
@@ -378,36 +256,22 @@ def load_spec(path: str | Path) -> ImpellerSpec:
         On any bad file, field or value (see module docstring).
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError(
-            "spec file not found",
-            file=path,
-            value=str(path),
-            accepted="an existing impeller spec TOML",
-        )
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
-        raise InputError(f"not valid TOML: {error}", file=path) from None
-    r = _Reader(path, data)
-    name = str(r.get("impeller.name", path.parent.name))
-    blades = r.integer("impeller.blades", minimum=1, maximum=64)
-
+    doc = validate(SpecFile, load_toml(path, "spec"), path)
     folder = path.parent
-    shroud = read_camber_csv(folder / str(r.get("camber.shroud")), "camber.shroud")
-    hub = read_camber_csv(folder / str(r.get("camber.hub")), "camber.hub")
-    mid_name = r.get("camber.midspan", None)
-    mid = None if mid_name is None else read_camber_csv(folder / str(mid_name), "camber.midspan")
+    shroud = read_camber_csv(folder / doc.camber.shroud, "camber.shroud")
+    hub = read_camber_csv(folder / doc.camber.hub, "camber.hub")
+    mid_name = doc.camber.midspan
+    mid = None if mid_name is None else read_camber_csv(folder / mid_name, "camber.midspan")
 
-    hub_contour = r.points("meridional.hub", 2)
-    shroud_contour = r.points("meridional.shroud", 2)
+    hub_contour = np.array(doc.meridional.hub, dtype=np.float64)
+    shroud_contour = np.array(doc.meridional.shroud, dtype=np.float64)
     _check_contour(path, "meridional.hub", hub_contour)
     _check_contour(path, "meridional.shroud", shroud_contour)
     if np.any(hub_contour[:, 1] < 0) or np.any(shroud_contour[:, 1] <= 0):
         raise InputError(
             "contour radius must be positive", file=path, field="meridional", accepted="r > 0 mm"
         )
-    bore = r.number("hub.bore_radius_mm", minimum=0.0, strictly=True)
+    bore = doc.hub.bore_radius_mm
     if bore >= float(hub_contour[:, 1].min()):
         raise InputError(
             "bore is not inside the hub",
@@ -416,12 +280,11 @@ def load_spec(path: str | Path) -> ImpellerSpec:
             value=bore,
             accepted=f"0 < bore < smallest hub contour radius {hub_contour[:, 1].min():g} mm",
         )
-
-    thickness_u, thickness_mm = _thickness(r)
+    thickness_u, thickness_mm = _thickness(doc.blade, path)
     spec = ImpellerSpec(
-        name=name,
+        name=doc.impeller.name or path.parent.name,
         source=path,
-        blades=blades,
+        blades=doc.impeller.blades,
         shroud_camber=shroud,
         hub_camber=hub,
         midspan_camber=mid,
@@ -430,14 +293,14 @@ def load_spec(path: str | Path) -> ImpellerSpec:
         bore_radius=bore,
         thickness_u=thickness_u,
         thickness_mm=thickness_mm,
-        leading_edge=r.choice("blade.leading_edge", EDGE_SHAPES, "round"),
-        trailing_edge=r.choice("blade.trailing_edge", EDGE_SHAPES, "cut"),
-        fillet_radius=r.number("blade.fillet_radius_mm", 0.0, minimum=0.0),
-        splitters=r.integer("splitters.count", 0, minimum=0, maximum=1),
-        splitter_start=r.number("splitters.start_fraction", 0.35, minimum=0.05, maximum=0.9),
-        stock_allowance=r.number("allowances.stock_mm", 2.0, minimum=0.0),
-        finishing_allowance=r.number("allowances.finishing_mm", 0.5, minimum=0.0),
-        machining=read_machining(data, path),
+        leading_edge=doc.blade.leading_edge,
+        trailing_edge=doc.blade.trailing_edge,
+        fillet_radius=doc.blade.fillet_radius_mm,
+        splitters=doc.splitters.count,
+        splitter_start=doc.splitters.start_fraction,
+        stock_allowance=doc.allowances.stock_mm,
+        finishing_allowance=doc.allowances.finishing_mm,
+        machining=settings_of(doc.machining),
     )
     # Geometric consistency (camber on contours, monotone meridional coordinate,
     # hub and shroud not crossing) needs the interpolated curves and surfaces.
@@ -447,43 +310,26 @@ def load_spec(path: str | Path) -> ImpellerSpec:
     return spec
 
 
-def _thickness(r: _Reader) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    constant = r.get("blade.thickness_mm", None)
-    law = r.get("blade.thickness", None)
-    if (constant is None) == (law is None):
-        raise InputError(
-            "give exactly one of thickness_mm or thickness",
-            file=r.path,
-            field="blade",
-            accepted="thickness_mm = <mm> or thickness = { u = [...], mm = [...] }",
-        )
-    if constant is not None:
-        d = r.number("blade.thickness_mm", minimum=0.0, strictly=True)
+def _thickness(blade: BladeTable, path: Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Knots and values of the thickness law (types and ranges already checked)."""
+    if blade.thickness is None:
+        d = float(blade.thickness_mm or 0.0)
         return np.array([0.0, 1.0]), np.array([d, d])
-    try:
-        u = np.array(r.get("blade.thickness.u"), dtype=np.float64).reshape(-1)
-        mm = np.array(r.get("blade.thickness.mm"), dtype=np.float64).reshape(-1)
-    except (TypeError, ValueError):
-        raise InputError(
-            "must be lists of numbers",
-            file=r.path,
-            field="blade.thickness",
-            value=_short(law),
-            accepted="{ u = [...], mm = [...] }",
-        ) from None
+    u = np.array(blade.thickness.u, dtype=np.float64)
+    mm = np.array(blade.thickness.mm, dtype=np.float64)
     accepted = "u increasing from 0 to 1, mm > 0, equal lengths >= 2"
-    if len(u) != len(mm) or len(u) < 2 or not np.all(np.isfinite(u)) or not np.all(np.isfinite(mm)):
+    if len(u) != len(mm):
         raise InputError(
-            "bad thickness law",
-            file=r.path,
+            "u and mm must have equal lengths",
+            file=path,
             field="blade.thickness",
-            value=_short(law),
+            value=_short({"u": u.tolist(), "mm": mm.tolist()}),
             accepted=accepted,
         )
     if abs(u[0]) > 1e-12 or abs(u[-1] - 1.0) > 1e-12 or np.any(np.diff(u) <= 0):
         raise InputError(
             "u must increase from 0 to 1",
-            file=r.path,
+            file=path,
             field="blade.thickness.u",
             value=u.tolist(),
             accepted=accepted,
@@ -491,7 +337,7 @@ def _thickness(r: _Reader) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     if np.any(mm <= 0):
         raise InputError(
             "thickness must be positive",
-            file=r.path,
+            file=path,
             field="blade.thickness.mm",
             value=mm.tolist(),
             accepted=accepted,

@@ -9,7 +9,6 @@ mm/s^3 (deg/s^3); the ``Machine`` holds mm, rad and seconds.
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,8 +19,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from impeller_cam.errors import InputError
+from impeller_cam.schema import load_toml, suggest, validate
 from postproc.kinematics.base import first_over_travel, over_travel_error
 from postproc.kinematics.registry import joint_names_for
+from postproc.machine_schema import AxisTable, MachineFile
 
 #: Rotary axis letters; every other axis is linear.
 ROTARY_AXES = frozenset({"A", "B", "C"})
@@ -42,20 +43,6 @@ SERVO_KEYS: tuple[str, ...] = (
     "screw_lead",
 )
 
-_TOP_KEYS = (
-    "name",
-    "description",
-    "kinematics",
-    "post",
-    "tcp",
-    "conventional_directions",
-    "pivot",
-    "axes",
-    "table",
-)
-_PIVOT_KEYS = ("x_rot_point", "y_rot_point", "z_rot_point", "x_offset", "y_offset", "z_offset")
-_AXIS_KEYS = ("min", "max", "continuous", "velocity", "acceleration", "jerk", "servo")
-_TABLE_KEYS = ("radius", "height", "z_top")
 
 
 @dataclass(frozen=True)
@@ -251,125 +238,46 @@ def ideal_machine(
 
 
 # --------------------------------------------------------------------------- loading
-class _Reader:
-    """Typed access to a TOML table with errors naming file and field."""
-
-    def __init__(self, file: Path | None) -> None:
-        self.file = file
-
-    def fail(
-        self, message: str, field: str, value: Any = None, accepted: str | None = None
-    ) -> InputError:
-        return InputError(message, file=self.file, field=field, value=value, accepted=accepted)
-
-    def table(
-        self, data: Mapping[str, Any], key: str, field: str, keys: tuple[str, ...]
-    ) -> Mapping[str, Any]:
-        value = data.get(key, {})
-        if not isinstance(value, Mapping):
-            raise self.fail("must be a table", field, value, "a TOML table [" + field + "]")
-        self.known(value, field, keys)
-        return value
-
-    def known(self, data: Mapping[str, Any], field: str, keys: tuple[str, ...]) -> None:
-        for key in data:
-            if key not in keys:
-                where = f"{field}.{key}" if field else key
-                raise self.fail("unknown key", where, key, ", ".join(keys))
-
-    def text(
-        self, data: Mapping[str, Any], key: str, field: str, default: str | None = None
-    ) -> str:
-        value = data.get(key, default)
-        if value is None:
-            raise self.fail("is required", field, accepted="a string")
-        if not isinstance(value, str) or not value.strip():
-            raise self.fail("must be a non-empty string", field, value, "a string")
-        return value
-
-    def flag(self, data: Mapping[str, Any], key: str, field: str, default: bool) -> bool:
-        value = data.get(key, default)
-        if not isinstance(value, bool):
-            raise self.fail("must be true or false", field, value, "true, false")
-        return value
-
-    def number(
-        self,
-        data: Mapping[str, Any],
-        key: str,
-        field: str,
-        default: float | None = None,
-        positive: bool = False,
-        finite: bool = True,
-    ) -> float:
-        value = data.get(key, default)
-        if value is None:
-            raise self.fail("is required", field, accepted="a number")
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise self.fail("must be a number", field, value, "a number")
-        value = float(value)
-        if math.isnan(value) or (finite and math.isinf(value)):
-            raise self.fail("must be a finite number", field, value, "a finite number")
-        if positive and not value > 0.0:
-            raise self.fail("must be positive", field, value, "a number > 0")
-        return value
-
-
-def _axis(reader: _Reader, name: str, data: Any) -> AxisSpec:
+def _axis(file: Path | None, name: str, data: AxisTable) -> AxisSpec:
+    """An ``AxisSpec`` in internal units from a validated ``[axes.NAME]`` table."""
     field_ = f"axes.{name}"
-    if not isinstance(data, Mapping):
-        raise reader.fail("must be a table", field_, data, f"a TOML table [{field_}]")
-    reader.known(data, field_, _AXIS_KEYS)
     rotary = name in ROTARY_AXES
     scale = math.radians(1.0) if rotary else 1.0
-    continuous = reader.flag(data, "continuous", f"{field_}.continuous", False)
-    if continuous and not rotary:
-        raise reader.fail(
-            "only a rotary axis can be continuous",
-            f"{field_}.continuous",
-            True,
-            "false (or omit) for a linear axis",
-        )
-    if continuous:
+    if data.continuous and not rotary:
+        raise InputError("only a rotary axis can be continuous", file=file,
+                         field=f"{field_}.continuous", value=True,
+                         accepted="false (or omit) for a linear axis")
+    if data.continuous:
         for key in ("min", "max"):
-            if key in data:
-                raise reader.fail(
-                    "a continuous axis has no travel limit",
-                    f"{field_}.{key}",
-                    data[key],
-                    "omit min/max or set continuous = false",
-                )
+            if getattr(data, key) is not None:
+                raise InputError("a continuous axis has no travel limit", file=file,
+                                 field=f"{field_}.{key}", value=getattr(data, key),
+                                 accepted="omit min/max or set continuous = false")
         lower, upper = -math.inf, math.inf
     else:
-        lower = reader.number(data, "min", f"{field_}.min", finite=not rotary)
-        upper = reader.number(data, "max", f"{field_}.max", finite=not rotary)
+        for key in ("min", "max"):
+            value = getattr(data, key)
+            if value is None:
+                raise InputError("is required", file=file, field=f"{field_}.{key}",
+                                 accepted="a number")
+            if not rotary and math.isinf(value):
+                raise InputError("must be a finite number", file=file,
+                                 field=f"{field_}.{key}", value=value,
+                                 accepted="a finite number (mm)")
+        lower, upper = float(data.min or 0.0), float(data.max or 0.0)
         if not lower < upper:
-            raise reader.fail(
-                "min must be below max", f"{field_}.max", upper, f"a number > min ({lower})"
-            )
-    servo_data = reader.table(data, "servo", f"{field_}.servo", SERVO_KEYS)
-    servo = {
-        key: reader.number(servo_data, key, f"{field_}.servo.{key}")
-        for key in SERVO_KEYS
-        if key in servo_data
-    }
-    for key, value in servo.items():
-        if value < 0.0:
-            raise reader.fail(
-                "must not be negative", f"{field_}.servo.{key}", value, "a number >= 0"
-            )
+            raise InputError("min must be below max", file=file, field=f"{field_}.max",
+                             value=upper, accepted=f"a number > min ({lower})")
+    servo = {} if data.servo is None else data.servo.model_dump(exclude_none=True)
+    jerk = math.inf if data.jerk is None else data.jerk
     return AxisSpec(
         name=name,
         rotary=rotary,
         minimum=lower * scale,
         maximum=upper * scale,
-        velocity=reader.number(data, "velocity", f"{field_}.velocity", positive=True)
-        * scale
-        / 60.0,
-        acceleration=reader.number(data, "acceleration", f"{field_}.acceleration", positive=True)
-        * scale,
-        jerk=reader.number(data, "jerk", f"{field_}.jerk", math.inf, positive=True, finite=False)
-        * scale,
+        velocity=data.velocity * scale / 60.0,
+        acceleration=data.acceleration * scale,
+        jerk=jerk * scale,
         servo=MappingProxyType(servo),
     )
 
@@ -377,50 +285,43 @@ def _axis(reader: _Reader, name: str, data: Any) -> AxisSpec:
 def machine_from_dict(data: Mapping[str, Any], source: str | Path | None = None) -> Machine:
     """Validate an already parsed machine TOML document (see ``load_machine``).
 
-    ``source`` is the file named in error messages and kept as ``Machine.source``.
+    The document is checked against ``postproc.machine_schema.MachineFile`` (keys,
+    types, ranges), then against its kinematics (which axes). ``source`` is the file
+    named in error messages and kept as ``Machine.source``.
     """
     file = None if source is None else Path(source)
-    reader = _Reader(file)
-    reader.known(data, "", _TOP_KEYS)
-    kinematics = reader.text(data, "kinematics", "kinematics")
-    names = joint_names_for(kinematics, file)
-    axes_data = reader.table(data, "axes", "axes", names)
-    missing = [name for name in names if name not in axes_data]
+    doc = validate(MachineFile, dict(data), file)
+    names = joint_names_for(doc.kinematics, file)
+    given = doc.axes.given()
+    for name in given:
+        if name not in names:
+            near = suggest(name, list(names))
+            hint = f": did you mean {near!r}?" if near else ""
+            raise InputError(f"unknown key {name!r} in [axes]{hint}", file=file,
+                             field=f"axes.{name}", value=name, accepted=", ".join(names))
+    missing = [name for name in names if name not in given]
     if missing:
-        raise reader.fail(
-            f"kinematics {kinematics!r} needs axis {missing[0]}",
-            f"axes.{missing[0]}",
+        raise InputError(
+            f"kinematics {doc.kinematics!r} needs axis {missing[0]}",
+            file=file,
+            field=f"axes.{missing[0]}",
             accepted=f"tables [axes.X] for X in {names}",
         )
-    axes = {name: _axis(reader, name, axes_data[name]) for name in names}
-    pivot_data = reader.table(data, "pivot", "pivot", _PIVOT_KEYS)
-    pivot = PivotOffsets(
-        **{key: reader.number(pivot_data, key, f"pivot.{key}", 0.0) for key in _PIVOT_KEYS}
-    )
     table = None
-    if "table" in data:
-        table_data = reader.table(data, "table", "table", _TABLE_KEYS)
-        table = TableGeometry(
-            radius=reader.number(table_data, "radius", "table.radius", positive=True),
-            height=reader.number(table_data, "height", "table.height", positive=True),
-            z_top=reader.number(table_data, "z_top", "table.z_top", 0.0),
-        )
-    description = data.get("description", "")
-    if not isinstance(description, str):
-        raise reader.fail("must be a string", "description", description, "a string")
+    if doc.table is not None:
+        table = TableGeometry(radius=doc.table.radius, height=doc.table.height,
+                              z_top=doc.table.z_top)
     return Machine(
-        name=reader.text(data, "name", "name"),
-        kinematics=kinematics,
-        axes=MappingProxyType(axes),
-        pivot=pivot,
-        conventional_directions=reader.flag(
-            data, "conventional_directions", "conventional_directions", False
-        ),
-        tcp=reader.flag(data, "tcp", "tcp", False),
-        post=reader.text(data, "post", "post", "linuxcnc"),
+        name=doc.name,
+        kinematics=doc.kinematics,
+        axes=MappingProxyType({name: _axis(file, name, given[name]) for name in names}),
+        pivot=PivotOffsets(**doc.pivot.model_dump()),
+        conventional_directions=doc.conventional_directions,
+        tcp=doc.tcp,
+        post=doc.post,
         table=table,
         source=file,
-        description=description,
+        description=doc.description,
     )
 
 
@@ -444,14 +345,4 @@ def load_machine(path: str | Path) -> Machine:
         message names the file, the field, the value and what would be accepted.
     """
     path = Path(path)
-    try:
-        text = path.read_bytes().decode("utf-8")
-    except FileNotFoundError:
-        raise InputError("machine file not found", file=path) from None
-    except (OSError, UnicodeDecodeError) as error:
-        raise InputError(f"cannot read machine file: {error}", file=path) from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
-        raise InputError(f"not valid TOML: {error}", file=path) from None
-    return machine_from_dict(data, path)
+    return machine_from_dict(load_toml(path, "machine"), path)

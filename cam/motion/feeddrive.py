@@ -45,15 +45,10 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cam.motion.schema import FeedDriveFile, FeedDriveServo
 from cam.motion.tomlio import read_toml
 from impeller_cam.errors import InputError
-
-#: Servo keys (same names as a machine TOML's ``[axes.N.servo]``).
-SERVO_KEYS: tuple[str, ...] = (
-    "Kpp", "Kvp", "Kvi", "J", "J1", "C", "K_FFP", "Ts", "Ta", "Tp",
-    "torque_limit", "screw_lead",
-)
-_REQUIRED = ("Kpp", "Kvp", "Kvi", "J", "C", "Ts", "Ta", "Tp")
+from impeller_cam.schema import validate
 
 #: Default simulation step, s (divides Table 1's Ts, Ta, Tp exactly).
 DEFAULT_DT = 1e-4
@@ -137,52 +132,27 @@ def axis_from_servo(
     InputError
         When a required key is missing, a key is unknown or a value is out of range.
     """
-    for key in servo:
-        if key not in SERVO_KEYS:
-            raise InputError("unknown servo key", file=file, field=f"axes.{name}.servo.{key}",
-                             value=key, accepted=", ".join(SERVO_KEYS))
-    for key in _REQUIRED:
-        if key not in servo:
-            raise InputError("servo parameter missing", file=file,
-                             field=f"axes.{name}.servo.{key}",
-                             accepted="servo table with " + ", ".join(_REQUIRED))
-    values: dict[str, float] = {}
-    for key, value in servo.items():
-        if isinstance(value, bool) or not isinstance(value, int | float) or not (
-            float(value) >= 0.0 and (math.isfinite(float(value)) or key == "torque_limit")
-        ):
-            raise InputError("must be a finite number >= 0", file=file,
-                             field=f"axes.{name}.servo.{key}", value=value,
-                             accepted="a number >= 0")
-        values[key] = float(value)
-    for key in ("Kpp", "Kvp", "J"):
-        if values[key] <= 0.0:
-            raise InputError("must be > 0", file=file, field=f"axes.{name}.servo.{key}",
-                             value=values[key], accepted="a number > 0")
-    lead = values.get("screw_lead")
-    if lead is not None and lead <= 0.0:
-        raise InputError("must be > 0", file=file, field=f"axes.{name}.servo.screw_lead",
-                         value=lead, accepted="a lead in mm > 0")
-    limit = values.get("torque_limit", math.inf)
-    return FeedDriveAxis(
-        name=name, rotary=rotary, kpp=values["Kpp"], kvp=values["Kvp"], kvi=values["Kvi"],
-        inertia=values["J"], viscous=values["C"], ts=values["Ts"], ta=values["Ta"],
-        tp=values["Tp"], load_inertia=values.get("J1", 0.0),
-        k_ffp=values.get("K_FFP", 100.0),
-        torque_limit=limit if limit > 0.0 else math.inf, screw_lead=lead,
-    )
+    table = validate(FeedDriveServo, dict(servo), file, at=("axes", name, "servo"))
+    return _axis_of(name, table, rotary)
 
 
 def load_feed_drives(path: str | Path) -> dict[str, FeedDriveAxis]:
     """Read a feed-drive TOML (``[axes.X]`` tables of servo keys; A/B/C are rotary)."""
     path = Path(path)
-    data = read_toml(path, "feed-drive")
-    axes = data.get("axes")
-    if not isinstance(axes, dict) or not axes:
-        raise InputError("missing [axes.NAME] tables", file=path, field="axes",
-                         accepted="tables [axes.X], [axes.C], ... of servo parameters")
-    return {name: axis_from_servo(name, table, name in ("A", "B", "C"), path)
-            for name, table in axes.items()}
+    doc = validate(FeedDriveFile, read_toml(path, "feed-drive"), path)
+    return {name: _axis_of(name, table, name in ("A", "B", "C"))
+            for name, table in doc.axes.items()}
+
+
+def _axis_of(name: str, table: FeedDriveServo, rotary: bool) -> FeedDriveAxis:
+    """A ``FeedDriveAxis`` from a validated servo table."""
+    limit = math.inf if table.torque_limit is None else table.torque_limit
+    return FeedDriveAxis(
+        name=name, rotary=rotary, kpp=table.Kpp, kvp=table.Kvp,
+        kvi=table.Kvi, inertia=table.J, viscous=table.C, ts=table.Ts, ta=table.Ta,
+        tp=table.Tp, load_inertia=table.J1, k_ffp=table.K_FFP,
+        torque_limit=limit if limit > 0.0 else math.inf, screw_lead=table.screw_lead,
+    )
 
 
 # --------------------------------------------------------------------------- frequency

@@ -30,7 +30,6 @@ Two exact solutions are provided:
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Literal
@@ -40,8 +39,10 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
+from cam.motion.schema import PlantFile
 from cam.motion.tomlio import read_toml
 from impeller_cam.errors import InputError
+from impeller_cam.schema import validate
 
 Output = Literal["acceleration", "position"]
 OUTPUTS: tuple[str, ...] = ("acceleration", "position")
@@ -259,34 +260,9 @@ def residual_modes(
 
 # --------------------------------------------------------------------------- TOML
 def plant_from_dict(data: dict[str, object], file: str | Path | None = None) -> TwoMassPlant:
-    """Validate the ``[plant]`` table of a plant TOML (see docs/formats.md)."""
-    table = data.get("plant")
-    if not isinstance(table, dict):
-        raise InputError("missing table [plant]", file=file, field="plant",
-                         accepted="a TOML table [plant] with " + ", ".join(PARAMETERS))
-    for key in table:
-        if key not in PARAMETERS:
-            raise InputError("unknown key", file=file, field=f"plant.{key}", value=key,
-                             accepted=", ".join(PARAMETERS))
-    values: dict[str, float] = {}
-    for key in PARAMETERS:
-        if key not in table:
-            if key == "feedforward":
-                continue
-            raise InputError("is required", file=file, field=f"plant.{key}",
-                             accepted="a number")
-        value = table[key]
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise InputError("must be a number", file=file, field=f"plant.{key}",
-                             value=value, accepted="a number")
-        value = float(value)
-        lower_ok = value >= 0.0 if key in ("damping", "feedforward") else value > 0.0
-        if not math.isfinite(value) or not lower_ok:
-            raise InputError("out of range", file=file, field=f"plant.{key}", value=value,
-                             accepted="a finite number " + (">= 0" if key in (
-                                 "damping", "feedforward") else "> 0"))
-        values[key] = value
-    return TwoMassPlant(**values)
+    """Validate a plant TOML document (``cam.motion.schema.PlantFile``; docs/formats.md)."""
+    doc = validate(PlantFile, data, file)
+    return TwoMassPlant(**doc.plant.model_dump())
 
 
 def load_plant(path: str | Path) -> tuple[TwoMassPlant, dict[str, object]]:

@@ -28,8 +28,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam.motion.plant import Output, TwoMassPlant, residual_modes
+from cam.motion.schema import SettlingTable
 from cam.motion.scurve import PAPER_PID_PERIOD, SCurveProfiles
 from impeller_cam.errors import InputError
+from impeller_cam.schema import validate
 
 #: The paper's settling band on table acceleration, mm/s^2.
 PAPER_ACCELERATION_BAND = 840.0
@@ -66,23 +68,11 @@ class Settling:
 
 def settling_from_dict(data: dict[str, object], file: object = None) -> Settling:
     """Read the optional ``[settling]`` table of a plant TOML (defaults: the paper's)."""
-    table = data.get("settling", {})
-    if not isinstance(table, dict):
-        raise InputError("must be a table", file=str(file) if file else None,
-                         field="settling", value=table, accepted="a TOML table [settling]")
-    for key in table:
-        if key not in ("output", "band", "pid_period"):
-            raise InputError("unknown key", file=str(file) if file else None,
-                             field=f"settling.{key}", value=key,
-                             accepted="output, band, pid_period")
-    output = table.get("output", "acceleration")
-    band = table.get("band", PAPER_ACCELERATION_BAND)
-    dt = table.get("pid_period", PAPER_PID_PERIOD)
-    for key, value in (("band", band), ("pid_period", dt)):
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise InputError("must be a number", file=str(file) if file else None,
-                             field=f"settling.{key}", value=value, accepted="a number > 0")
-    return Settling(output=str(output), band=float(band), dt=float(dt))  # type: ignore[arg-type]
+    if "settling" not in data:
+        return Settling()
+    where = str(file) if file else None
+    table = validate(SettlingTable, data["settling"], where, at=("settling",))
+    return Settling(output=table.output, band=table.band, dt=table.pid_period)
 
 
 @numba.njit(cache=True)

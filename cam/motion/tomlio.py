@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 from typing import Any
 
-from impeller_cam.errors import InputError
+from impeller_cam.schema import load_toml
 
 
 def read_toml(path: str | Path, kind: str) -> dict[str, Any]:
@@ -23,10 +22,4 @@ def read_toml(path: str | Path, kind: str) -> dict[str, Any]:
     InputError
         When the file is missing or is not valid UTF-8 TOML.
     """
-    path = Path(path)
-    try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise InputError(f"{kind} file not found", file=path) from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
-        raise InputError(f"not a valid TOML file: {error}", file=path) from None
+    return load_toml(path, kind)

@@ -5,10 +5,11 @@
 * Indexing: the A/C index moves between UMRs (and passages) of the rough programs,
   each timed as a synchronised rapid with the machine's limits, and the paper's
   S-curve input search (M5, ``cam.motion.optimise``) on the bundled indexing-table
-  plant (fixtures/motion/indexing_table.toml: the machine file has no TDOF model of
-  its axes). The stroke searched is the longest index move, measured as its X/Y/Z
-  travel or the arc its A/C rotation sweeps at the impeller's outer radius, whichever
-  is longer (the plant is a linear table: an approximation, said so in motion.json).
+  plant (impeller_cam/data/motion/indexing_table.toml, a copy of fixtures/motion/: the
+  machine file has no TDOF model of its axes). The stroke searched is the longest index
+  move, measured as its X/Y/Z travel or the arc its A/C rotation sweeps at the
+  impeller's outer radius, whichever is longer (the plant is a linear table: an
+  approximation, said so in motion.json).
   The grid is coarse by default (S 0..115 step 5, A 10,000..30,000 step
   5,000, V 200..500 step 50: 4,200 profiles, seconds) - ``indexing_grid = "paper"``
   searches the paper's 4.8 million. Case I, best symmetric and best asymmetric
@@ -30,6 +31,7 @@ from numpy.typing import NDArray
 
 from cam.run.stages import Context, nc_programs
 from impeller_cam.atomic import staged_directory, write_text_atomic
+from impeller_cam.data import data_path
 
 __all__ = ["COARSE_GRID", "SERVO_DT", "index_moves", "motion_outputs"]
 
@@ -38,7 +40,8 @@ COARSE_GRID = ((0.0, 115.0, 5.0), (10000.0, 30000.0, 5000.0), (200.0, 500.0, 50.
 #: Controller period of the servo simulation, s (coarser than the 250 us default:
 #: the feed-drive time constants are >= 5 ms; 1 ms keeps the chain quick).
 SERVO_DT = 1e-3
-PLANT = Path(__file__).resolve().parents[2] / "fixtures" / "motion" / "indexing_table.toml"
+#: The indexing-table plant shipped in the package (a copy of fixtures/motion/).
+PLANT = data_path("motion", "indexing_table.toml")
 
 
 def index_moves(joints: NDArray[np.float64], start: NDArray[np.float64]
@@ -115,7 +118,8 @@ def _indexing(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
     positioning = data["positioning_time_s"]
     n = len(start)
     out.update({
-        "plant": "fixtures/motion/indexing_table.toml",
+        "plant": "indexing_table.toml (bundled: impeller_cam/data/motion, a copy of "
+                 "fixtures/motion)",
         "stroke_mm": stroke,
         "stroke_basis": "longest index move: X/Y/Z travel or the arc its A/C rotation "
                         f"sweeps at the impeller's outer radius ({radius:.1f} mm)",
