@@ -6,8 +6,9 @@
 * ``motion/*.toml``: the indexing-table plant of the chain's motion stage and the
   feed-drive parameters of Suzuki et al.
 
-They are copies of the repository's ``fixtures/`` files (a test keeps them equal), so
-that an installed wheel works outside the repository.
+They are the one copy of these files: the repository's ``fixtures/`` holds symbolic
+links to them (a test checks it), and an installed wheel carries them, so it works
+outside the repository.
 """
 
 from __future__ import annotations
