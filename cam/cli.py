@@ -221,11 +221,9 @@ def run_command(
                                    post=post,
                                    only=stage, start=start, **settings)
     if len(specs) == 1 and scheduler is None:
-        from cam.inputs import check_run_inputs
         from cam.run import run_chain
 
-        check_run_inputs(specs[0], _machine(machine), **options)  # bad input: nothing written
-        run_chain(specs[0], _machine(machine), out, **options)
+        run_chain(specs[0], _machine(machine), out, **options)  # bad input: nothing written
         return
     from cam.run import run_batch
 

@@ -125,6 +125,11 @@ def run_chain(
         raise InputError("machine file not found", file=machine, field="-m",
                          value=str(machine), accepted="an existing machine TOML")
     names = selected_stages(only, start)
+    from cam.inputs import check_run_inputs
+
+    # every file the run reads is checked before anything is written
+    check_run_inputs(spec, machine, rough_tool=rough_tool, finish_tool=finish_tool,
+                     tool=tool, post=post, **settings)
     run_settings = resolve_settings(spec, rough_tool=rough_tool, finish_tool=finish_tool,
                                     tool=tool, post=post, **settings)
     ctx = Context(spec=spec, machine=machine, out=out, settings=run_settings)
