@@ -1,10 +1,11 @@
 """Shared fixtures of the cam tests.
 
 ``chain_small``: the whole ``impeller-cam run`` chain on the ``small`` fixture with
-coarse settings, once per test session (about 2-3 minutes on one core); returns the
-output folder. Other tests (the report) read its files; they must not modify them.
-When ``cam.report`` is not in this build the report stage fails (as it should) and the
-fixture still returns the folder with every other stage done.
+coarse settings, once per test run (shared by the xdist workers; about 2 minutes on
+one core); returns the output folder. Other tests (the report) read its files; they
+must not modify them. When ``cam.report`` is not in this build the report stage
+fails (as it should) and the fixture still returns the folder with every other stage
+done.
 """
 
 from __future__ import annotations
@@ -29,14 +30,30 @@ CHAIN_SETTINGS: dict[str, Any] = {
 
 
 @pytest.fixture(scope="session")
-def chain_small(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Output folder of the whole chain on the small fixture (session-scoped)."""
+def chain_small(tmp_path_factory: pytest.TempPathFactory, worker_id: str) -> Path:
+    """Output folder of the whole chain on the small fixture, built once per test run:
+    pytest-xdist workers share it (the first builds it under a lock, the others wait
+    and read it)."""
+    import fcntl
+
     from cam.run import run_chain
 
-    out = tmp_path_factory.mktemp("chain") / "small"
-    try:
-        run_chain(SMALL_SPEC, CHAIN_MACHINE, out, progress=False, **CHAIN_SETTINGS)
-    except RuntimeError as error:
-        if "cam.report" not in str(error):
-            raise
+    root = tmp_path_factory.getbasetemp()
+    if worker_id != "master":  # the workers' base folders share a parent
+        root = root.parent
+    out = root / "chain_small" / "small"
+    done = root / "chain_small" / "done"
+    with open(root / "chain_small.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            if not done.exists():
+                try:
+                    run_chain(SMALL_SPEC, CHAIN_MACHINE, out, progress=False,
+                              **CHAIN_SETTINGS)
+                except RuntimeError as error:
+                    if "cam.report" not in str(error):
+                        raise
+                done.write_text("built\n")
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
     return out

@@ -204,7 +204,6 @@ def test_report_in_browser_synthetic(tmp_path: Path) -> None:
     check_report(out, "synthetic", tmp_path)
 
 
-@pytest.mark.xdist_group("chain_small")  # the session fixture is fetched by name
 def test_report_in_browser_chain_small(request: pytest.FixtureRequest,
                                        tmp_path: Path) -> None:
     try:
