@@ -35,8 +35,9 @@ catches the crossing within its stated bound).
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Collection, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import overload
 
 import fcl
 import numpy as np
@@ -120,6 +121,48 @@ class PostureReport:
         return self.collides | (self.clearance < min_clearance)
 
 
+class _RoleObjects(Mapping[str, fcl.CollisionObject]):
+    """fcl objects of the scene meshes by role, each built on first access."""
+
+    def __init__(self, meshes: Mapping[str, trimesh.Trimesh]) -> None:
+        self._meshes = meshes
+        self._built: dict[str, fcl.CollisionObject] = {}
+
+    def __getitem__(self, role: str) -> fcl.CollisionObject:
+        if role not in self._built:
+            mesh = self._meshes[role]
+            self._built[role] = fcl.CollisionObject(bvh_model(mesh.vertices, mesh.faces),
+                                                    fcl.Transform())
+        return self._built[role]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._meshes)
+
+    def __len__(self) -> int:
+        return len(self._meshes)
+
+
+class _InOrder(Sequence[fcl.CollisionObject]):
+    """The role objects as a sequence in role order (built on access)."""
+
+    def __init__(self, objects: _RoleObjects, roles: tuple[str, ...]) -> None:
+        self._objects, self._roles = objects, roles
+
+    @overload
+    def __getitem__(self, i: int) -> fcl.CollisionObject: ...
+
+    @overload
+    def __getitem__(self, i: slice) -> Sequence[fcl.CollisionObject]: ...
+
+    def __getitem__(self, i: int | slice) -> fcl.CollisionObject | Sequence[fcl.CollisionObject]:
+        if isinstance(i, slice):
+            return [self._objects[r] for r in self._roles[i]]
+        return self._objects[self._roles[i]]
+
+    def __len__(self) -> int:
+        return len(self._roles)
+
+
 def _check_meshes(meshes: Mapping[str, trimesh.Trimesh]) -> None:
     if not meshes:
         raise InputError("the collision scene needs at least one mesh", field="meshes")
@@ -186,10 +229,8 @@ class CollisionScene:
         self.sections = int(sections)
         self.arc_step = math.radians(arc_step_deg)
         self.slack = float(slack)
-        self.objects = {
-            role: fcl.CollisionObject(bvh_model(m.vertices, m.faces), fcl.Transform())
-            for role, m in self.meshes.items()
-        }
+        #: fcl object per role (built on first use: the exact kernel settles most pairs)
+        self.objects = _RoleObjects(self.meshes)
         self.triangles = {
             role: TriangleSet(m.vertices, m.faces) for role, m in self.meshes.items()
         }
@@ -336,7 +377,7 @@ class CollisionScene:
             settled[todo[(result == HIT).any(axis=1)]] = True
         kernel_pairs = settle_undecided(self, model, tip_a, rot, state)
         part_objects = [model.objects.get(name) for name in PART_NAMES]
-        role_objects = [self.objects[role] for role in self.roles]
+        role_objects = _InOrder(self.objects, self.roles)
         collides, part_hit, role_hit, calls = first_contacts(
             part_objects, role_objects, tip_a, rot, state
         )
