@@ -31,7 +31,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from cam.collision.gjk import triangle_piece_distance
+from cam.collision.gjk import section_ring, triangle_piece_distance
 from cam.collision.triangle_bvh import STACK
 
 __all__ = ["BodyShape", "body_distances", "tool_pieces"]
@@ -212,7 +212,7 @@ def _posture_distance(
     pieces: NDArray[np.float64],
     coarse: NDArray[np.float64],
     spheres: NDArray[np.float64],
-    sections: int,
+    ring: NDArray[np.float64],
     cap: float,
     stack: NDArray[np.int64],
     lower: NDArray[np.float64],
@@ -265,7 +265,7 @@ def _posture_distance(
                         # guess: from the piece's nearest meridian point to the centroid
                         radial = math.sqrt(cx * cx + cy * cy)
                         ux, uy = (cx / radial, cy / radial) if radial > 0.0 else (1.0, 0.0)
-                        lo, hi = triangle_piece_distance(local, r0, z0, r1, z1, sections, best,
+                        lo, hi = triangle_piece_distance(local, r0, z0, r1, z1, ring, best,
                                                          simplex, cx - nr * ux, cy - nr * uy,
                                                          cz - nz)
                         if lo < best:
@@ -319,7 +319,7 @@ def _body_distances(
     pieces: NDArray[np.float64],
     coarse: NDArray[np.float64],
     spheres: NDArray[np.float64],
-    sections: int,
+    ring: NDArray[np.float64],
     cap: float,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # pragma: no cover - compiled
     n = tip.shape[0]
@@ -333,7 +333,7 @@ def _body_distances(
         out_lo[q], out_hi[q] = _posture_distance(
             tris, tri_centre, tri_radius, tri_slab, node_lo, node_hi, node_slab, left, first,
             size, roots[q],
-            tip[q], rot[q], pieces, coarse, spheres, sections, cap, stack, lower, simplex,
+            tip[q], rot[q], pieces, coarse, spheres, ring, cap, stack, lower, simplex,
             local)
     return out_lo, out_hi
 
@@ -385,5 +385,6 @@ def body_distances(
         np.ascontiguousarray(rot, dtype=np.float64),
         np.ascontiguousarray(shape.pieces, dtype=np.float64),
         np.ascontiguousarray(shape.coarse, dtype=np.float64),
-        np.ascontiguousarray(shape.spheres, dtype=np.float64), int(sections), float(cap))
+        np.ascontiguousarray(shape.spheres, dtype=np.float64), section_ring(int(sections)),
+        float(cap))
     return np.asarray(lo), np.asarray(hi)

@@ -30,7 +30,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["GJK_ITERATIONS", "GJK_TOLERANCE", "triangle_piece_distance"]
+__all__ = ["GJK_ITERATIONS", "GJK_TOLERANCE", "section_ring", "triangle_piece_distance"]
 
 #: Width at which the GJK interval counts as converged, mm.
 GJK_TOLERANCE = 1e-9
@@ -40,21 +40,30 @@ GJK_ITERATIONS = 64
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def _piece_support(
-    dx: float, dy: float, dz: float, r0: float, z0: float, r1: float, z1: float, sections: int
+    dx: float, dy: float, dz: float, r0: float, z0: float, r1: float, z1: float,
+    ring: NDArray[np.float64],
 ) -> tuple[float, float, float]:  # pragma: no cover - compiled
-    """Vertex of the piece (hull of rings ``(r0, z0)``, ``(r1, z1)``) furthest along d."""
-    step = 2.0 * math.pi / sections
+    """Vertex of the piece (hull of rings ``(r0, z0)``, ``(r1, z1)``) furthest along d.
+
+    ``ring`` (N, 2) holds ``cos, sin`` of the section angles ``2 pi j / N``."""
+    sections = ring.shape[0]
     if dx == 0.0 and dy == 0.0:
         j = 0
     else:
-        j = int(round(math.atan2(dy, dx) / step)) % sections
-    c, s = math.cos(j * step), math.sin(j * step)
+        j = int(round(math.atan2(dy, dx) * (sections / (2.0 * math.pi)))) % sections
+    c, s = ring[j, 0], ring[j, 1]
     along = dx * c + dy * s
     v0 = r0 * along + dz * z0
     v1 = r1 * along + dz * z1
     if v0 >= v1:
         return r0 * c, r0 * s, z0
     return r1 * c, r1 * s, z1
+
+
+def section_ring(sections: int) -> NDArray[np.float64]:
+    """``(N, 2)`` cos and sin of the section angles ``2 pi j / N`` of a revolved mesh."""
+    phi = 2.0 * math.pi * np.arange(sections) / sections
+    return np.column_stack([np.cos(phi), np.sin(phi)])
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -209,7 +218,7 @@ def triangle_piece_distance(
     z0: float,
     r1: float,
     z1: float,
-    sections: int,
+    ring: NDArray[np.float64],
     prune: float,
     simplex: NDArray[np.float64],
     dx: float,
@@ -223,9 +232,10 @@ def triangle_piece_distance(
     t : (3, 3) float64
         Triangle corners in the tool frame (tip at the origin, axis +Z), mm.
     r0, z0, r1, z1 : float
-        The piece: convex hull of the ``sections``-gon rings of circumradius
-        ``r0`` at height ``z0`` and ``r1`` at ``z1`` (a vertex at angle 0), mm.
-    sections : int
+        The piece: convex hull of the N-gon rings of circumradius ``r0`` at
+        height ``z0`` and ``r1`` at ``z1`` (a vertex at angle 0), mm.
+    ring : (N, 2) float64
+        ``cos, sin`` of the section angles ``2 pi j / N`` (``section_ring``).
     prune : float
         Stop as soon as the lower bound reaches this (mm); ``upper`` may then be
         far above ``lower``.
@@ -246,7 +256,7 @@ def triangle_piece_distance(
     if dx == 0.0 and dy == 0.0 and dz == 0.0:
         dx = 1.0
     ax, ay, az = _triangle_support(-dx, -dy, -dz, t)
-    bx, by, bz = _piece_support(dx, dy, dz, r0, z0, r1, z1, sections)
+    bx, by, bz = _piece_support(dx, dy, dz, r0, z0, r1, z1, ring)
     v[0], v[1], v[2] = ax - bx, ay - by, az - bz
     lower = max((dx * v[0] + dy * v[1] + dz * v[2]) / math.sqrt(dx * dx + dy * dy + dz * dz),
                 0.0)
@@ -260,7 +270,7 @@ def triangle_piece_distance(
             return 0.0, 0.0
         norm = math.sqrt(vv)
         ax, ay, az = _triangle_support(-v[0], -v[1], -v[2], t)
-        bx, by, bz = _piece_support(v[0], v[1], v[2], r0, z0, r1, z1, sections)
+        bx, by, bz = _piece_support(v[0], v[1], v[2], r0, z0, r1, z1, ring)
         wx, wy, wz = ax - bx, ay - by, az - bz
         vw = v[0] * wx + v[1] * wy + v[2] * wz
         if vw > 0.0:

@@ -20,7 +20,7 @@ import pytest
 from cam.collision import CollisionScene, plain_fcl_check, rotations_to
 from cam.collision.body_distance import body_distances, tool_pieces
 from cam.collision.clearance import BAND
-from cam.collision.gjk import triangle_piece_distance
+from cam.collision.gjk import section_ring, triangle_piece_distance
 from cam.collision.synthetic import impeller_meshes
 from cam.collision.tool_mesh import revolve
 from cam.finishing.options import FinishOptions
@@ -70,19 +70,20 @@ def test_triangle_piece_distance_by_hand() -> None:
     # a cylinder of circumradius 2 (4 sections: vertices on the axes), z 0..10, and a
     # triangle in the plane x = 5: distance 3 to the vertex ring at (2, 0)
     tri = np.array([[5.0, -1.0, 2.0], [5.0, 1.0, 2.0], [5.0, 0.0, 8.0]])
-    lo, hi = triangle_piece_distance(tri, 2.0, 0.0, 2.0, 10.0, 4, np.inf, np.empty((4, 3)),
+    square = section_ring(4)
+    lo, hi = triangle_piece_distance(tri, 2.0, 0.0, 2.0, 10.0, square, np.inf, np.empty((4, 3)),
                                      1.0, 0.0, 0.0)
     assert lo == pytest.approx(3.0, abs=1e-12) and hi == pytest.approx(3.0, abs=1e-12)
     # rotated by 45 deg about z the flat side faces it: distance 5 - 2 cos(45 deg)
     c = math.cos(math.pi / 4)
     turned = tri @ np.array([[c, c, 0.0], [-c, c, 0.0], [0.0, 0.0, 1.0]])
-    lo, hi = triangle_piece_distance(turned, 2.0, 0.0, 2.0, 10.0, 4, np.inf,
+    lo, hi = triangle_piece_distance(turned, 2.0, 0.0, 2.0, 10.0, square, np.inf,
                                      np.empty((4, 3)), 0.0, 1.0, 0.0)
     assert hi == pytest.approx(5.0 - 2.0 * c, abs=1e-12) and hi - lo < 1e-9
     # crossing the cylinder: overlap
     inside = tri - [4.0, 0.0, 0.0]
-    assert triangle_piece_distance(inside, 2.0, 0.0, 2.0, 10.0, 4, np.inf, np.empty((4, 3)),
-                                   1.0, 0.0, 0.0) == (0.0, 0.0)
+    assert triangle_piece_distance(inside, 2.0, 0.0, 2.0, 10.0, square, np.inf,
+                                   np.empty((4, 3)), 1.0, 0.0, 0.0) == (0.0, 0.0)
 
 
 @pytest.mark.parametrize("part", ["cutter", "body"])
