@@ -20,11 +20,18 @@ normal; "finishing-like": those of them whose ball is at least R + 0.5 mm from
 blades and splitters (the ball in the passage, touching only the hub it cuts);
 "approach": the tip lifted 0-20 mm along the normal; "random": tips uniform in
 the bounding box, axes uniform on the upper half sphere. The last line compares
-checks that also compute the shank+holder clearance (fcl distance); capped, the
-shank and holder grown by the cap are first tested with one fcl collide, and only
-those that touch (or hold a small scene piece) get the fcl distance. Run:
+checks that also compute the shank+holder clearance (the exact GJK kernel,
+docs/collision.md; fcl distance on the plain side).
+
+``--finishing FIXTURE`` instead finishes a fixture (solid scene, trunnion-500, the
+main job's settings: scallop 0.5 mm, spacing 1.5 mm, clearance 2.5 mm, exact up to
+3 mm; all passages or ``--passages N``) and checks every posture of its finished
+paths and every sub-sample of the motions between them both ways: hit/miss,
+part and role compared posture by posture, clearances compared below the cap
+(largest difference) and above it (the lower bound holds). Run:
 
     .venv/bin/python benchmarks/bench_collision.py [--postures N] [--seed S] [--synthetic | --dense]
+    .venv/bin/python benchmarks/bench_collision.py --finishing nine_blade [--finish-tool T]
 """
 
 from __future__ import annotations
@@ -206,8 +213,61 @@ def run(
     )
 
 
+def finishing_check(fixture: str, tool_name: str, passages: int | None) -> None:
+    """Every posture of a finishing run (paths' postures and the sub-samples of the
+    motions between them): CollisionScene against the plain loop."""
+    from cam.collision.postures import subdivide_motion
+    from cam.finishing.options import FinishOptions
+    from cam.finishing.plan import plan_finishing
+    from cam.finishing.scene import solid_meshes
+    from geometry.impeller import Impeller
+    from geometry.spec import load_spec
+    from postproc.kinematics import kinematics_for
+    from postproc.machine import load_machine
+
+    impeller = Impeller(load_spec(ROOT / "fixtures" / "impellers" / fixture / "spec.toml"))
+    options = FinishOptions.from_mapping(dict(scallop_mm=0.5, point_spacing_mm=1.5,
+                                              clearance_mm=2.5, clearance_exact_mm=3.0,
+                                              passages=passages))
+    scene = CollisionScene(solid_meshes(impeller, options.tessellation_mm))
+    tool = resolve_tool(tool_name)
+    kins = kinematics_for(load_machine(ROOT / "fixtures" / "machines" / "trunnion-500.toml"))
+    result = plan_finishing(impeller.surfaces, tool, kins, scene, options, scene_source="solid")
+    step = math.radians(options.motion_step_deg)
+    subs = [subdivide_motion(p.tip, p.axis, options.motion_step_mm, step)[:2]
+            for p in result.paths if len(p.tip) > 1]
+    tip = np.concatenate([t for t, _ in subs])
+    axis = np.concatenate([a for _, a in subs])
+    cap, allowance = options.clearance_exact_mm, options.cutter_allowance_mm
+    c0, w0 = time.process_time(), time.perf_counter()
+    fast = scene.check_postures(tool, tip, axis, cutter_allowance=allowance, clearance_cap=cap,
+                                clearance_limits=(options.clearance_mm,))
+    c1, w1 = time.process_time(), time.perf_counter()
+    plain = plain_fcl_check(scene, tool, tip, axis, cutter_allowance=allowance)
+    c2, w2 = time.process_time(), time.perf_counter()
+    differ = int(np.sum((fast.collides != plain.collides) | (fast.part != plain.part))
+                 + sum(a != b for a, b in zip(fast.hit_role, plain.hit_role, strict=True)))
+    below = plain.clearance < cap
+    worst = float(np.max(np.abs(fast.clearance[below] - plain.clearance[below]), initial=0.0))
+    bound_ok = bool(np.all(fast.clearance[~below] >= cap - 1e-9))
+    limit_differ = int(np.sum((fast.clearance < options.clearance_mm)
+                              != (plain.clearance < options.clearance_mm)))
+    print(f"{fixture} finishing, passages {passages or 'all'}, {tool.name}: "
+          f"{sum(len(p.tip) for p in result.paths)} path postures, with the motion "
+          f"sub-samples {len(tip)} postures, "
+          f"hits {int(plain.collides.sum())}, differing hit/miss/part/role {differ}, "
+          f"clearance below {cap} mm: {int(below.sum())} postures, largest |fast - fcl| "
+          f"{worst:.2e} mm; above: lower bound holds {bound_ok}; "
+          f"differing 'clearance < {options.clearance_mm}' {limit_differ}; "
+          f"CPU fast {c1 - c0:.1f} s, plain {c2 - c1:.1f} s "
+          f"(wall {w1 - w0:.1f} / {w2 - w1:.1f} s); checks {fast.checks}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--finishing", default=None, help="fixture: check its finishing")
+    parser.add_argument("--finish-tool", default="ball6_taper")
+    parser.add_argument("--passages", type=int, default=None, help="--finishing: passages")
     parser.add_argument("--postures", type=int, default=20000)
     parser.add_argument("--seed", type=int, default=7)
     parser.add_argument("--tool", default="ball6_taper")
@@ -221,6 +281,9 @@ def main() -> None:
         help="the synthetic impeller tessellated finely (about 512k triangles) instead",
     )
     args = parser.parse_args()
+    if args.finishing:
+        finishing_check(args.finishing, args.finish_tool, args.passages)
+        return
     if args.dense:
         meshes, source = dense_meshes()
     elif args.synthetic:

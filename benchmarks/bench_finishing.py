@@ -1,69 +1,226 @@
-"""Benchmark: a whole five-axis finishing run (``impeller-cam finish``) per fixture.
+"""Benchmark: the main job's finish stage, a baseline commit against this tree.
 
-For each impeller fixture: wall-clock time of ``run_finish`` (set-up of the
-collision scene included), the number of paths and cutter-centre points, the
-junction path point counts (the paper: 475 CC points on the pressure-side
-junction, 26 paths), reverse movements of A and C before and after smoothing,
-collisions left, the smallest shank/holder clearance, and postures checked per
-second. The collision scene is the built solid's meshes (``--scene solid``,
-default) or the closed-form surfaces (``--scene surfaces``). Run:
+In one invocation, on nine_blade at the main job's settings (the spec's
+``[machining]`` table, machine trunnion-500, and what ``cam/run/stages.py``
+``finish_options`` adds: ``clearance_mm`` = 0.5 + the roughed stock,
+``clearance_exact_mm`` at least that), it runs ``run_finish``
 
-    .venv/bin/python benchmarks/bench_finishing.py [--fixtures small nine_blade splitter]
-        [--scene solid|surfaces] [--scallop MM] [--spacing MM] [--passages N]
+1. with the baseline code (``--baseline-path DIR``, a checkout of the baseline, or
+   ``--baseline-ref REF``, checked out into a temporary git worktree; default
+   7e9ac6f) in a child process, and
+2. with this tree's code in a second child process,
 
-The numbers go to stdout; outputs to a temporary folder (``--keep DIR`` keeps them).
+and prints per side the finish stage's wall and CPU time (the child's process
+time: robust to a shared machine), points, cost per point, A/C reversals and
+collisions, then the ratios and whether the APT files are byte-identical.
+Independently of the planner's scene, every APT pose of this tree's programs is
+then re-checked with python-fcl against the geometry stage's STL
+(``Impeller.export_stl``, read back from the file): the cutter shrunk by the
+cutter allowance and shank/holder may not touch it, and shank/holder keep
+``clearance_mm`` (one collide of shank/holder grown by ``clearance_mm``; an
+``fcl.distance`` where that touches). Motions between poses are not re-checked.
+
+Each child gets its own numba cache folder (``--cache DIR``, kept between
+invocations): the first invocation includes compilation on both sides, later ones
+are warm. Run:
+
+    .venv/bin/python benchmarks/bench_finishing.py [--baseline-path /work/wt/base]
+        [--passages N] [--keep DIR] [--skip-baseline]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import math
+import os
+import subprocess
+import sys
 import tempfile
 import time
+import tomllib
 from pathlib import Path
-
-from cam.finishing.command import run_finish
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
-TOOLS = {"small": "ball4_taper", "nine_blade": "ball6_taper", "splitter": "ball4_taper"}
-MACHINE = ROOT / "fixtures" / "machines" / "xyzac-trt.toml"
+SPEC = ROOT / "fixtures" / "impellers" / "nine_blade" / "spec.toml"
+MACHINE = ROOT / "fixtures" / "machines" / "trunnion-500.toml"
+APT = ("finish_junction.apt", "finish_blade.apt", "finish_hub.apt")
+#: ``FinishOptions().clearance_mm`` and ``clearance_exact_mm`` defaults (as of 7e9ac6f).
+DEFAULT_CLEARANCE, DEFAULT_EXACT = 0.5, 3.0
+
+
+def main_job_settings(spec: Path) -> tuple[str, dict[str, Any]]:
+    """Finishing tool and options of the main job (``stages.finish_options``)."""
+    with open(spec, "rb") as handle:
+        doc = tomllib.load(handle)
+    machining = doc["machining"]
+    options: dict[str, Any] = dict(machining.get("finish", {}))
+    allowance = doc["allowances"]
+    rough = float(allowance["finishing_mm"]) + float(machining["rough"]["scallop_mm"])
+    stock = max(rough, float(allowance["stock_mm"]))
+    options["clearance_mm"] = float(options.get("clearance_mm", DEFAULT_CLEARANCE)) + stock
+    options["clearance_exact_mm"] = max(float(options.get("clearance_exact_mm", DEFAULT_EXACT)),
+                                        options["clearance_mm"])
+    return str(machining["finish_tool"]), options
+
+
+def child(out: Path, tool: str, options: dict[str, Any]) -> None:
+    """Run the finish stage with whatever ``cam`` the path gives; print a JSON line."""
+    from cam.finishing.command import run_finish
+
+    wall, cpu = time.perf_counter(), time.process_time()
+    doc = run_finish(SPEC, MACHINE, tool, out, progress=False, plots=False, **options)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    s = doc["summary"]
+    print(json.dumps({"wall": wall, "cpu": cpu, "points": s["points"], "paths": s["paths"],
+                      "reversals_after": s["reversals_after"], "collisions": s["collisions"],
+                      "motion_collisions": s["motion_collisions"],
+                      "link_collisions": doc["link_collisions"],
+                      "min_clearance_mm": s["min_clearance_mm"],
+                      "cam": __import__("cam").__file__}))
+
+
+def run_side(code: Path, out: Path, cache: Path, tool: str, options: dict[str, Any],
+             passages: int | None) -> dict[str, Any]:
+    """One child process on the code at ``code``; its JSON answer."""
+    if passages is not None:
+        options = dict(options, passages=passages)
+    env = dict(os.environ, PYTHONPATH=str(code), NUMBA_CACHE_DIR=str(cache),
+               PYTHONDONTWRITEBYTECODE="1")
+    command = [sys.executable, str(Path(__file__).resolve()), "--child", str(out), "--tool",
+               tool, "--options", json.dumps(options)]
+    done = subprocess.run(command, env=env, cwd=code, capture_output=True, text=True,
+                          check=False)
+    if done.returncode:
+        raise SystemExit(f"child on {code} failed:\n{done.stderr[-4000:]}")
+    answer: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
+    return answer
+
+
+def recheck(folder: Path, stl: Path, tool_name: str, options: dict[str, Any]
+            ) -> dict[str, Any]:
+    """Every APT pose of ``folder`` against the STL with python-fcl (see module doc)."""
+    import fcl
+    import numpy as np
+    import trimesh
+
+    from cam.collision.postures import rotations_to
+    from cam.collision.tool_mesh import (
+        bvh_model,
+        concatenate,
+        grown_profile,
+        revolve,
+        tool_geometry,
+    )
+    from cam.tools import resolve_tool
+    from postproc.apt import read_apt
+
+    mesh = trimesh.load(stl, force="mesh")
+    part = fcl.CollisionObject(bvh_model(np.asarray(mesh.vertices), np.asarray(mesh.faces)))
+    tool = resolve_tool(tool_name)
+    allowance = float(options.get("cutter_allowance_mm", 0.05))
+    limit = float(options["clearance_mm"])
+    parts = tool_geometry(tool, cutter_offset=-allowance)
+    cutter = fcl.CollisionObject(parts["cutter"].bvh)
+    body_parts = [parts[n] for n in ("shank", "holder") if n in parts]
+    body_mesh = concatenate([p.mesh for p in body_parts])
+    body = fcl.CollisionObject(bvh_model(body_mesh.vertices, body_mesh.faces))
+    grown_mesh = concatenate([revolve(grown_profile(p.profile, limit), 48) for p in body_parts])
+    grown = fcl.CollisionObject(bvh_model(grown_mesh.vertices, grown_mesh.faces))
+    poses = contacts = close = distances = 0
+    smallest = math.inf
+    request, dist_request = fcl.CollisionRequest(), fcl.DistanceRequest()
+    for name in APT:
+        for path in read_apt(folder / name):
+            rot = rotations_to(path.axis)
+            for i in range(len(path.tip)):
+                transform = fcl.Transform(rot[i], path.tip[i])
+                poses += 1
+                for obj in (cutter, body):
+                    obj.setTransform(transform)
+                    if fcl.collide(obj, part, request, fcl.CollisionResult()):
+                        contacts += 1
+                        break
+                grown.setTransform(transform)
+                if fcl.collide(grown, part, request, fcl.CollisionResult()):
+                    distances += 1
+                    d = fcl.distance(body, part, dist_request, fcl.DistanceResult())
+                    smallest = min(smallest, d)
+                    close += int(d < limit)
+    return {"poses": poses, "contacts": contacts, "below_clearance": close,
+            "distance_calls": distances,
+            "smallest_checked_mm": None if math.isinf(smallest) else round(smallest, 4)}
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--fixtures", nargs="+", default=list(TOOLS))
-    parser.add_argument("--scene", default="solid", choices=("solid", "surfaces"))
-    parser.add_argument("--scallop", type=float, default=0.05, help="scallop height, mm")
-    parser.add_argument("--spacing", type=float, default=0.25, help="point spacing, mm")
+    parser.add_argument("--baseline-path", type=Path, default=None,
+                        help="checkout of the baseline code")
+    parser.add_argument("--baseline-ref", default="7e9ac6f",
+                        help="git ref checked out into a temporary worktree (default)")
+    parser.add_argument("--skip-baseline", action="store_true")
     parser.add_argument("--passages", type=int, default=None, help="passages (default all)")
-    parser.add_argument("--machine", type=Path, default=MACHINE)
     parser.add_argument("--keep", type=Path, default=None, help="keep the outputs here")
+    parser.add_argument("--cache", type=Path,
+                        default=Path(tempfile.gettempdir()) / "impeller-cam-bench-numba")
+    parser.add_argument("--child", type=Path, default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--tool", default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--options", default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
-    header = (f"{'fixture':<11} {'scene':<8} {'tool':<12} {'paths':>6} {'points':>8} "
-              f"{'junction pts':>14} {'A/C rev before':>15} {'after':>7} {'coll':>5} "
-              f"{'min clear':>9} {'time s':>8} {'pts/s':>7}")
-    print(header)
-    for name in args.fixtures:
-        with tempfile.TemporaryDirectory() as tmp:
-            out = (args.keep / name) if args.keep else Path(tmp) / name
-            start = time.perf_counter()
-            doc = run_finish(ROOT / "fixtures" / "impellers" / name / "spec.toml",
-                             args.machine, TOOLS[name], out, scene=args.scene,
-                             progress=False, scallop_mm=args.scallop,
-                             point_spacing_mm=args.spacing, passages=args.passages)
-            elapsed = time.perf_counter() - start
-        s = doc["summary"]
-        before = f"{s['reversals_before']['A']}/{s['reversals_before']['C']}"
-        after = f"{s['reversals_after']['A']}/{s['reversals_after']['C']}"
-        junction = ",".join(str(n) for n in s["junction_points"][:4])
-        clear = "-" if s["min_clearance_mm"] is None else f"{s['min_clearance_mm']:.3f}"
-        print(f"{name:<11} {args.scene:<8} {TOOLS[name]:<12} {s['paths']:>6} {s['points']:>8} "
-              f"{junction:>14} {before:>15} {after:>7} {s['collisions']:>5} {clear:>9} "
-              f"{elapsed:>8.1f} {s['points'] / elapsed:>7.0f}")
-        if s["smaller_tool_needed"]:
-            print(f"  smaller tool needed on {len(s['smaller_tool_needed'])} paths, e.g. "
-                  f"{s['smaller_tool_needed'][:3]}")
-    print("paper (seed 001): 475 CC points on the pressure-side junction, 26 paths, "
-          "0 reversals after tuning")
+    if args.child is not None:
+        child(args.child, args.tool, json.loads(args.options))
+        return
+    tool, options = main_job_settings(SPEC)
+    print(f"nine_blade, {tool}, {MACHINE.name}, options {options}, "
+          f"passages {args.passages or 'all'}")
+    with tempfile.TemporaryDirectory() as tmp:
+        work = args.keep or Path(tmp)
+        work.mkdir(parents=True, exist_ok=True)
+        sides: dict[str, dict[str, Any]] = {}
+        worktree = None
+        if not args.skip_baseline:
+            base = args.baseline_path
+            if base is None:
+                worktree = Path(tmp) / "baseline"
+                subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach",
+                                str(worktree), args.baseline_ref], check=True,
+                               capture_output=True)
+                base = worktree
+            try:
+                sides["baseline"] = run_side(base.resolve(), work / "baseline",
+                                             args.cache / "baseline", tool, options,
+                                             args.passages)
+            finally:
+                if worktree is not None:
+                    subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force",
+                                    str(worktree)], check=False, capture_output=True)
+        sides["new"] = run_side(ROOT, work / "new", args.cache / "new", tool, options,
+                                args.passages)
+        print(f"{'side':<9} {'wall s':>8} {'cpu s':>8} {'points':>7} {'ms/pt wall':>10} "
+              f"{'ms/pt cpu':>9} {'A/C rev':>7} {'coll':>5} {'motion':>6} {'links':>5} "
+              f"{'min clear':>9}")
+        for name, s in sides.items():
+            rev = f"{s['reversals_after']['A']}/{s['reversals_after']['C']}"
+            print(f"{name:<9} {s['wall']:>8.1f} {s['cpu']:>8.1f} {s['points']:>7} "
+                  f"{1e3 * s['wall'] / s['points']:>10.2f} {1e3 * s['cpu'] / s['points']:>9.2f} "
+                  f"{rev:>7} {s['collisions']:>5} {s['motion_collisions']:>6} "
+                  f"{s['link_collisions']:>5} {s['min_clearance_mm']!s:>9}")
+        if "baseline" in sides:
+            old, new = sides["baseline"], sides["new"]
+            print(f"speed-up: wall {old['wall'] / new['wall']:.1f}x, "
+                  f"cpu {old['cpu'] / new['cpu']:.1f}x")
+            same = [(work / "baseline" / a).read_bytes() == (work / "new" / a).read_bytes()
+                    for a in APT]
+            print("APT byte-identical to the baseline:", dict(zip(APT, same, strict=True)))
+        from geometry.impeller import Impeller
+        from geometry.spec import load_spec
+
+        stl = Impeller(load_spec(SPEC)).export_stl(work / "impeller.stl")
+        start = time.perf_counter()
+        check = recheck(work / "new", stl, tool, options)
+        print(f"re-check of the new APT poses against {stl.name} (python-fcl, "
+              f"{time.perf_counter() - start:.0f} s): {check}")
 
 
 if __name__ == "__main__":

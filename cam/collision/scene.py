@@ -35,8 +35,9 @@ catches the crossing within its stated bound).
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Mapping
+from collections.abc import Collection, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import overload
 
 import fcl
 import numpy as np
@@ -44,14 +45,12 @@ import trimesh
 from numpy.typing import ArrayLike, NDArray
 
 from cam.collision.broad_phase import (
-    axis_spheres,
     grid_frame,
-    inscribed_radii,
     surface_grid,
 )
+from cam.collision.clearance import body_clearance, settle_undecided
 from cam.collision.distance_grid import DistanceGrid, RoleMask
 from cam.collision.exact_phase import HIT, SceneArrays, TriangleSet, classify_part
-from cam.collision.grown_tool import GrownTool
 from cam.collision.narrow_phase import first_contacts
 from cam.collision.postures import (
     motion_bound,
@@ -63,11 +62,10 @@ from cam.collision.tool_mesh import (
     DEFAULT_ARC_STEP,
     DEFAULT_SECTIONS,
     PART_NAMES,
-    PartGeometry,
     bvh_model,
     concatenate,
-    tool_geometry,
 )
+from cam.collision.tool_model import ToolModel, build_tool_model
 from cam.tools import Tool
 from impeller_cam.errors import InputError
 
@@ -123,18 +121,46 @@ class PostureReport:
         return self.collides | (self.clearance < min_clearance)
 
 
-@dataclass
-class _ToolModel:
-    parts: dict[str, PartGeometry]
-    objects: dict[str, fcl.CollisionObject]
-    spheres: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]]
-    inner: dict[str, NDArray[np.float64]]
-    size: dict[str, float]
-    clear_object: fcl.CollisionObject | None
-    clear_spheres: tuple[NDArray[np.float64], NDArray[np.float64]] | None
-    reach: float
-    #: shank+holder grown by a clearance cap (``grown_tool.GrownTool``), by cap
-    grown: dict[float, GrownTool] = field(default_factory=dict)
+class _RoleObjects(Mapping[str, fcl.CollisionObject]):
+    """fcl objects of the scene meshes by role, each built on first access."""
+
+    def __init__(self, meshes: Mapping[str, trimesh.Trimesh]) -> None:
+        self._meshes = meshes
+        self._built: dict[str, fcl.CollisionObject] = {}
+
+    def __getitem__(self, role: str) -> fcl.CollisionObject:
+        if role not in self._built:
+            mesh = self._meshes[role]
+            self._built[role] = fcl.CollisionObject(bvh_model(mesh.vertices, mesh.faces),
+                                                    fcl.Transform())
+        return self._built[role]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._meshes)
+
+    def __len__(self) -> int:
+        return len(self._meshes)
+
+
+class _InOrder(Sequence[fcl.CollisionObject]):
+    """The role objects as a sequence in role order (built on access)."""
+
+    def __init__(self, objects: _RoleObjects, roles: tuple[str, ...]) -> None:
+        self._objects, self._roles = objects, roles
+
+    @overload
+    def __getitem__(self, i: int) -> fcl.CollisionObject: ...
+
+    @overload
+    def __getitem__(self, i: slice) -> Sequence[fcl.CollisionObject]: ...
+
+    def __getitem__(self, i: int | slice) -> fcl.CollisionObject | Sequence[fcl.CollisionObject]:
+        if isinstance(i, slice):
+            return [self._objects[r] for r in self._roles[i]]
+        return self._objects[self._roles[i]]
+
+    def __len__(self) -> int:
+        return len(self._roles)
 
 
 def _check_meshes(meshes: Mapping[str, trimesh.Trimesh]) -> None:
@@ -203,10 +229,8 @@ class CollisionScene:
         self.sections = int(sections)
         self.arc_step = math.radians(arc_step_deg)
         self.slack = float(slack)
-        self.objects = {
-            role: fcl.CollisionObject(bvh_model(m.vertices, m.faces), fcl.Transform())
-            for role, m in self.meshes.items()
-        }
+        #: fcl object per role (built on first use: the exact kernel settles most pairs)
+        self.objects = _RoleObjects(self.meshes)
         self.triangles = {
             role: TriangleSet(m.vertices, m.faces) for role, m in self.meshes.items()
         }
@@ -233,7 +257,7 @@ class CollisionScene:
         )
         self._merged = merged
         self._whole_object: fcl.CollisionObject | None = None
-        self._tools: dict[tuple[Tool, float], _ToolModel] = {}
+        self._tools: dict[tuple[Tool, float], ToolModel] = {}
 
     @property
     def whole_object(self) -> fcl.CollisionObject:
@@ -247,42 +271,12 @@ class CollisionScene:
 
     # -- tool models ---------------------------------------------------------------
 
-    def tool_model(self, tool: Tool, cutter_offset: float = 0.0) -> _ToolModel:
+    def tool_model(self, tool: Tool, cutter_offset: float = 0.0) -> ToolModel:
         """The (cached) meshes, fcl objects and sphere covers of a tool."""
         key = (tool, float(cutter_offset))
         if key not in self._tools:
-            parts = tool_geometry(
-                tool, cutter_offset=cutter_offset, sections=self.sections, arc_step=self.arc_step
-            )
-            objects = {n: fcl.CollisionObject(p.bvh, fcl.Transform()) for n, p in parts.items()}
-            spheres = {
-                n: axis_spheres(p.profile, p.radial_scale, self.slack, p.corner_centre_height)
-                for n, p in parts.items()
-            }
-            inner = {
-                n: inscribed_radii(p.profile, spheres[n][0], p.arc_excess)
-                for n, p in parts.items()
-            }
-            size = {
-                n: float(np.linalg.norm(np.ptp(p.mesh.vertices, axis=0)))
-                for n, p in parts.items()
-            }
-            body = [parts[n] for n in ("shank", "holder") if n in parts]
-            clear_object = None
-            clear_spheres = None
-            if body:
-                mesh = concatenate([p.mesh for p in body])
-                clear_object = fcl.CollisionObject(bvh_model(mesh.vertices, mesh.faces))
-                clear_spheres = (
-                    np.concatenate([spheres[p.name][0] for p in body]),
-                    np.concatenate([spheres[p.name][1] for p in body]),
-                )
-            reach = max(
-                float(np.linalg.norm(p.mesh.vertices, axis=1).max()) for p in parts.values()
-            )
-            self._tools[key] = _ToolModel(
-                parts, objects, spheres, inner, size, clear_object, clear_spheres, reach
-            )
+            self._tools[key] = build_tool_model(tool, float(cutter_offset), self.sections,
+                                                self.arc_step, self.slack)
         return self._tools[key]
 
     # -- checks --------------------------------------------------------------------
@@ -298,6 +292,7 @@ class CollisionScene:
         cutter_roles: Collection[str] | None = None,
         clearance: bool = True,
         clearance_cap: float = math.inf,
+        clearance_limits: Sequence[float] = (),
     ) -> PostureReport:
         """Check ``n`` tool postures against the scene.
 
@@ -321,7 +316,12 @@ class CollisionScene:
             Compute the shank+holder clearance.
         clearance_cap : float
             Clearances above this are reported as a lower bound (>= cap) from
-            the broad phase instead of an fcl distance, mm.
+            the broad phase instead of an exact distance, mm.
+        clearance_limits : sequence of float
+            Limits the caller compares the clearance with, mm: a clearance
+            within ``clearance.BAND`` (1e-6 mm) of one is fcl's own distance,
+            so such comparisons are exactly those of fcl's values (elsewhere
+            the exact kernel agrees with fcl to rounding, see docs/collision.md).
 
         Returns
         -------
@@ -375,15 +375,18 @@ class CollisionScene:
             )
             state[todo, code, :] = result
             settled[todo[(result == HIT).any(axis=1)]] = True
+        kernel_pairs = settle_undecided(self, model, tip_a, rot, state)
         part_objects = [model.objects.get(name) for name in PART_NAMES]
-        role_objects = [self.objects[role] for role in self.roles]
+        role_objects = _InOrder(self.objects, self.roles)
         collides, part_hit, role_hit, calls = first_contacts(
             part_objects, role_objects, tip_a, rot, state
         )
         clear = np.full(n, np.nan)
         if clearance and model.clear_object is not None and model.clear_spheres is not None:
-            clear, dist_calls = self._clearance(model, tip_a, axis_a, rot, part_hit, clearance_cap)
-            calls["distance"] = dist_calls
+            clear, counts = body_clearance(self, model, tip_a, axis_a, rot, part_hit,
+                                           clearance_cap, clearance_limits)
+            calls.update(counts)
+        calls["kernel_pairs"] = kernel_pairs
         hit_role = [None if r < 0 else self.roles[r] for r in role_hit]
         return PostureReport(collides, part_hit, hit_role, clear, 0.0, calls)
 
@@ -400,6 +403,7 @@ class CollisionScene:
         cutter_roles: Collection[str] | None = None,
         clearance: bool = True,
         clearance_cap: float = math.inf,
+        clearance_limits: Sequence[float] = (),
     ) -> PostureReport:
         """Check the motion between consecutive postures by subdivision.
 
@@ -434,6 +438,7 @@ class CollisionScene:
             cutter_roles=cutter_roles,
             clearance=clearance,
             clearance_cap=clearance_cap,
+            clearance_limits=clearance_limits,
         )
         model = self.tool_model(tool, -float(cutter_allowance))
         first = starts[:-1]
@@ -467,43 +472,3 @@ class CollisionScene:
                 accepted=", ".join(self.roles),
             )
         return tuple(r for r in self.roles if r in roles)
-
-    def _clearance(
-        self,
-        model: _ToolModel,
-        tip: NDArray[np.float64],
-        axis: NDArray[np.float64],
-        rot: NDArray[np.float64],
-        part_hit: NDArray[np.int8],
-        cap: float,
-    ) -> tuple[NDArray[np.float64], int]:
-        assert model.clear_object is not None and model.clear_spheres is not None
-        heights, radii = model.clear_spheres
-        body_hit = part_hit >= 1
-        if math.isinf(cap):
-            clear = np.zeros(len(tip))
-            exact = np.flatnonzero(~body_hit)
-        else:
-            clear = self.whole.part_bounds(tip, axis, heights, radii, cap)
-            clear[body_hit] = 0.0
-            exact = np.flatnonzero((clear <= cap) & ~body_hit)
-        if exact.size and not math.isinf(cap):
-            # grown by the cap and missing the scene: clearance >= cap, no distance
-            proven = self._grown(model, cap).misses(self.whole_object, rot[exact],
-                                                    tip[exact], axis[exact])
-            clear[exact[proven]] = cap
-            exact = exact[~proven]
-        request = fcl.DistanceRequest()
-        for i in exact:
-            model.clear_object.setTransform(fcl.Transform(rot[i], tip[i]))
-            d = fcl.distance(model.clear_object, self.whole_object, request, fcl.DistanceResult())
-            clear[i] = max(float(d), 0.0)
-        return clear, len(exact)
-
-    def _grown(self, model: _ToolModel, cap: float) -> GrownTool:
-        """The shank and holder grown by ``cap`` mm (cached per tool model and cap)."""
-        if cap not in model.grown:
-            body = [model.parts[n] for n in ("shank", "holder") if n in model.parts]
-            model.grown[cap] = GrownTool.build(body, cap, self.sections,
-                                               list(self.triangles.values()))
-        return model.grown[cap]

@@ -83,7 +83,8 @@ def _check_links(scene: CollisionScene, tool: Tool, toolpath: Toolpath,
                                     max_step_deg=options.motion_step_deg,
                                     cutter_allowance=options.cutter_allowance_mm,
                                     # only compared with the limit: exact below it
-                                    clearance_cap=options.clearance_mm)
+                                    clearance_cap=options.clearance_mm,
+                                    clearance_limits=(options.clearance_mm,))
         clear = np.asarray(report.clearance)
         bad += int((report.collides | (np.isfinite(clear)
                                        & (clear < options.clearance_mm))).sum())

@@ -33,7 +33,7 @@ from cam.tools import Tool
 if TYPE_CHECKING:
     from cam.collision import CollisionScene
 
-__all__ = ["InterferenceResult", "check_path", "resolve_interference"]
+__all__ = ["InterferenceResult", "check_path", "interferes_at", "resolve_interference"]
 
 Array = NDArray[np.float64]
 
@@ -96,7 +96,8 @@ def check_path(scene: CollisionScene, tool: Tool, tip: Array, axis: Array,
     """Check the postures and the motion between them (no remedy)."""
     report = scene.check_postures(tool, tip, axis,
                                   cutter_allowance=options.cutter_allowance_mm,
-                                  clearance_cap=options.clearance_exact_mm)
+                                  clearance_cap=options.clearance_exact_mm,
+                                  clearance_limits=(options.clearance_mm,))
     clearance = np.asarray(report.clearance, dtype=np.float64)
     collides = np.asarray(report.collides, dtype=bool) | (
         np.isfinite(clearance) & (clearance < options.clearance_mm))
@@ -105,7 +106,8 @@ def check_path(scene: CollisionScene, tool: Tool, tip: Array, axis: Array,
                                     max_step_deg=options.motion_step_deg,
                                     cutter_allowance=options.cutter_allowance_mm,
                                     # only compared with the limit: exact below it
-                                    clearance_cap=options.clearance_mm)
+                                    clearance_cap=options.clearance_mm,
+                                    clearance_limits=(options.clearance_mm,))
         mclear = np.asarray(motion.clearance, dtype=np.float64)
         motion_collides = np.asarray(motion.collides, dtype=bool) | (
             np.isfinite(mclear) & (mclear < options.clearance_mm))
@@ -141,21 +143,89 @@ def resolve_interference(scene: CollisionScene, tool: Tool, centre: Array, axis:
         fewest interfering postures up to Cmax.
     """
     radius = tool.radius
-    limit = float(np.min(c_max)) if len(c_max) else 0.0
+    limit = float(np.min(c_max))
     best = check_path(scene, tool, centre - radius * axis, axis, options)
     best.c_max = limit
     if not best.smaller_tool_needed:
         return best
     step = math.radians(options.delta_c_deg)
+
+    def full(k: int) -> InterferenceResult:
+        turned = rotate_about_z(axis, sign * k * step)
+        trial = check_path(scene, tool, centre - radius * turned, turned, options)
+        trial.delta_c, trial.steps, trial.c_max = k * step, k, limit
+        return trial
+
+    # A step that still interferes is only needed (with its count) if no step is
+    # free. Each step is first probed at the postures and motions that interfered
+    # at the last fully checked step: one of them still interfering fails the step
+    # without checking the rest. Only a free-looking step is checked in full.
+    probe = best.interfering_points
+    failed: list[int] = []
     k = 0
     while (k + 1) * step <= limit + 1e-12:
         k += 1
         turned = rotate_about_z(axis, sign * k * step)
-        trial = check_path(scene, tool, centre - radius * turned, turned, options)
-        trial.delta_c, trial.steps, trial.c_max = k * step, k, limit
-        if trial.interfering_points.size < best.interfering_points.size:
-            best = trial
+        if interferes_at(scene, tool, centre - radius * turned, turned, probe, options):
+            failed.append(k)
+            continue
+        trial = full(k)
         if not trial.smaller_tool_needed:
             return trial
+        probe = trial.interfering_points
+        failed.append(-k)  # checked in full: kept below
+        if trial.interfering_points.size < best.interfering_points.size:
+            best = trial
+    # no step is free: the step with the fewest interfering postures (the first of
+    # equals), as if every step had been checked in full
+    for k_failed in failed:
+        if k_failed > 0:
+            trial = full(k_failed)
+            if trial.interfering_points.size < best.interfering_points.size or (
+                    trial.interfering_points.size == best.interfering_points.size
+                    and trial.steps < best.steps):
+                best = trial
     best.steps = k
     return best
+
+
+def interferes_at(scene: CollisionScene, tool: Tool, tip: Array, axis: Array,
+                  points: NDArray[np.intp], options: FinishOptions) -> bool:
+    """Whether any of the postures ``points`` (or the motion from one of them to the
+    next posture) interferes, with the rules of ``check_path``.
+
+    Parameters
+    ----------
+    tip, axis : (n, 3) float64
+        The whole path's postures.
+    points : (k,) intp
+        Indices of postures to test (sorted).
+    """
+    if not points.size:
+        return False
+    report = scene.check_postures(tool, tip[points], axis[points],
+                                  cutter_allowance=options.cutter_allowance_mm,
+                                  clearance_cap=options.clearance_exact_mm,
+                                  clearance_limits=(options.clearance_mm,))
+    clear = np.asarray(report.clearance, dtype=np.float64)
+    if (np.asarray(report.collides) | (np.isfinite(clear)
+                                       & (clear < options.clearance_mm))).any():
+        return True
+    segments = points[points < len(tip) - 1]
+    if not segments.size:
+        return False
+    # runs of consecutive segments, each checked as one motion
+    breaks = np.flatnonzero(np.diff(segments) > 1) + 1
+    for run in np.split(segments, breaks):
+        lo, hi = int(run[0]), int(run[-1]) + 2
+        motion = scene.check_motion(tool, tip[lo:hi], axis[lo:hi],
+                                    max_step_mm=options.motion_step_mm,
+                                    max_step_deg=options.motion_step_deg,
+                                    cutter_allowance=options.cutter_allowance_mm,
+                                    clearance_cap=options.clearance_mm,
+                                    clearance_limits=(options.clearance_mm,))
+        mclear = np.asarray(motion.clearance, dtype=np.float64)
+        if (np.asarray(motion.collides) | (np.isfinite(mclear)
+                                           & (mclear < options.clearance_mm))).any():
+            return True
+    return False

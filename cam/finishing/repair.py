@@ -240,7 +240,8 @@ def _search(scene: CollisionScene, tool: Tool, kins: Kinematics, axis: Array, jo
         tips = rules.centre[index[who]] - tool.radius * axes
         report = scene.check_postures(tool, tips, axes,
                                       cutter_allowance=options.cutter_allowance_mm,
-                                      clearance_cap=options.clearance_exact_mm)
+                                      # only compared with need: exact below it
+                                      clearance_cap=need, clearance_limits=(need,))
         clear = np.asarray(report.clearance, dtype=np.float64)
         good = ~np.asarray(report.collides, dtype=bool) & ~(np.isfinite(clear) & (clear < need))
         if not good.any():

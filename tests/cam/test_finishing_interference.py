@@ -78,3 +78,46 @@ def test_interference_at_cmax_asks_for_a_smaller_tool(wall_scene: CollisionScene
     assert result.interfering_points.tolist() == [0, 1, 2, 3, 4]
     assert math.degrees(result.delta_c) <= 30.0 + 1e-9
     assert result.steps == 6  # 5, 10, ..., 30 deg tried, none enough
+
+
+def _every_step(scene: CollisionScene, centre: np.ndarray, axis: np.ndarray, sign: float,
+                limit: float, options: FinishOptions) -> tuple[float, int, list[int]]:
+    """The remedy with every step checked in full (the loop before step probing)."""
+    from cam.finishing.posture import rotate_about_z
+
+    best = check_path(scene, TOOL, centre - TOOL.radius * axis, axis, options)
+    best_k = 0
+    if not best.smaller_tool_needed:
+        return 0.0, 0, []
+    step, k = math.radians(options.delta_c_deg), 0
+    while (k + 1) * step <= limit + 1e-12:
+        k += 1
+        turned = rotate_about_z(axis, sign * k * step)
+        trial = check_path(scene, TOOL, centre - TOOL.radius * turned, turned, options)
+        if trial.interfering_points.size < best.interfering_points.size:
+            best, best_k = trial, k
+        if not trial.smaller_tool_needed:
+            return k * step, k, []
+    return best_k * step, k, best.interfering_points.tolist()
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_probed_steps_give_the_result_of_checking_every_step(
+        wall_scene: CollisionScene, seed: int) -> None:
+    """Random leaning paths (even seeds freed after 16-39 steps, odd ones never): the probed
+    remedy picks the same step, the same count of steps and the same points."""
+    rng = np.random.default_rng(seed)
+    n = 9
+    near, lean = (2.5, 14.0) if seed % 2 else (3.0, 8.0)  # odd seeds: never freed
+    centre = np.column_stack([rng.uniform(near, 4.0, n), np.linspace(-8.0, 8.0, n),
+                              rng.uniform(3.0, 9.0, n)])
+    beta = np.radians(rng.uniform(0.0, lean, n))
+    axis = np.column_stack([-np.sin(beta), np.zeros(n), np.cos(beta)])
+    options = FinishOptions(delta_c_deg=float(rng.choice([2.0, 4.0])))
+    limit = math.radians(float(rng.choice([12.0, 40.0, 90.0])))
+    result = resolve_interference(wall_scene, TOOL, centre, axis, +1.0, np.full(n, limit),
+                                  options)
+    delta_c, steps, points = _every_step(wall_scene, centre, axis, +1.0, limit, options)
+    assert result.delta_c == pytest.approx(delta_c, abs=1e-12)
+    assert result.steps == steps
+    assert result.interfering_points.tolist() == points
