@@ -1,0 +1,295 @@
+"""The batched dexel sweep: straight fixed-axis moves through one grid, compiled.
+
+One call of ``sweep_grid`` takes a whole batch of moves (no Python per move). Per
+move and tool primitive it visits only rays that can meet the sweep and that still
+hold material there, in three filters of rising cost:
+
+1. **footprint**: every swept primitive lies in a capsule (points within ``rho`` of a
+   segment): a full sphere's sweep *is* the capsule around the travelled segment of
+   its centre; any other primitive lies within ``rmax`` of the parallelogram its axis
+   sweeps, hence in a capsule around the axis at the mid move (``rmax + |d|/2``) or
+   around the move at the mid axis (``hypot(rmax, (zhi - zlo)/2)``), the thinner of
+   the two. Per grid row, ``interval.stadium_row`` gives the span of rays inside the
+   capsule's projection; blocks of ``tile`` x ``tile`` rays whose material range
+   misses the sweep's range along the rays are skipped;
+2. **material**: the capsule's interval on the ray (exact for a sphere), cut to the
+   swept slab ``zlo <= z <= zhi``, against the ray's material range: no overlap, no
+   more work (the early-out for rays whose material is already gone there);
+3. **exact interval**: the closed forms of ``cam.verify.interval`` where they apply,
+   else ``kernels.swept_interval`` (the general path and accuracy reference).
+
+Semantics are those of the per-primitive sweep in ``kernels``: moves in order, and
+within a move the cutting primitives before the body probes on each ray; per move
+the removed length, the longest cut of the cutter along one ray (the cutter's
+primitives together), the overlap sum and the longest overlap of one body primitive.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from cam.verify.interval import (
+    capsule_row,
+    endpoint_interval,
+    parallel_cylinder_interval,
+    stadium_row,
+)
+from cam.verify.kernels import MIN_PIECE, _overlap, _subtract, swept_interval
+
+_PAR = 1e-12
+_GUARD = 1e-9  # mm added to every bound
+
+
+@njit(cache=True)
+def _capsule(tip, d, ax, alpha, beta, gamma, zlo, zhi, rmax):  # type: ignore[no-untyped-def]
+    """Bounding capsule of a swept primitive (module doc): start point (3,), unit
+    direction (3,), length, radius, and whether it is exact (a full sphere)."""
+    p0 = np.empty(3)
+    u = np.empty(3)
+    dl = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    exact = False
+    if alpha == 1.0:
+        zc = -0.5 * beta
+        r2 = zc * zc - gamma
+        rad = math.sqrt(max(r2, 0.0))
+        exact = zlo <= zc - rad + 1e-12 and zhi >= zc + rad - 1e-12
+    if exact:
+        for c in range(3):
+            p0[c] = tip[c] + zc * ax[c]
+        length = dl
+        rho = rad
+        for c in range(3):
+            u[c] = d[c] / dl if dl > 0.0 else 0.0
+        return p0, u, length, rho, True
+    rho_a = rmax + 0.5 * dl  # around the axis segment at the mid move
+    rho_b = math.hypot(rmax, 0.5 * (zhi - zlo))  # around the move at the mid axis
+    if rho_a <= rho_b:
+        for c in range(3):
+            p0[c] = tip[c] + zlo * ax[c] + 0.5 * d[c]
+            u[c] = ax[c]
+        return p0, u, zhi - zlo, rho_a + _GUARD, False
+    zm = 0.5 * (zlo + zhi)
+    for c in range(3):
+        p0[c] = tip[c] + zm * ax[c]
+        u[c] = d[c] / dl
+    return p0, u, dl, rho_b + _GUARD, False
+
+
+@njit(cache=True, inline="always")
+def _trim(lo, hi, lom, him, count, cap, r, base, n, a, b, move):  # type: ignore[no-untyped-def]
+    """Fast path of ``kernels._subtract`` (same result) for ``[a, b]`` meeting one
+    material interval of ray ``r`` (``n`` intervals from ``base``): trims an end, or,
+    for the last interval, splits it into a spare slot or drops it. Returns the
+    removed length, or -1 when the general path is needed (no loops that move
+    intervals here: inlined into the sweep they cost more than they save)."""
+    i = 0
+    while i < n and hi[base + i] <= a:
+        i += 1
+    if i == n or lo[base + i] >= b:
+        return 0.0
+    if i + 1 < n and lo[base + i + 1] < b:
+        return -1.0
+    x0 = lo[base + i]
+    x1 = hi[base + i]
+    keep_left = x0 < a - MIN_PIECE
+    keep_right = x1 > b + MIN_PIECE
+    if keep_left == keep_right:
+        return -1.0
+    if keep_left:
+        hi[base + i] = a
+        him[base + i] = move
+        return min(x1, b) - a
+    if keep_right:
+        lo[base + i] = b
+        lom[base + i] = move
+        return b - max(x0, a)
+    return -1.0  # unreachable
+
+
+@njit(cache=True, nogil=True)
+def material_range(lo, hi, start, count):  # type: ignore[no-untyped-def]
+    """Per ray: lowest start and highest end of its material (inf, -inf when none)."""
+    n_rays = count.shape[0]
+    mat_lo = np.full(n_rays, np.inf)
+    mat_hi = np.full(n_rays, -np.inf)
+    for r in range(n_rays):
+        n = count[r]
+        if n > 0:
+            mat_lo[r] = lo[start[r]]
+            mat_hi[r] = hi[start[r] + n - 1]
+    return mat_lo, mat_hi
+
+
+@njit(cache=True, nogil=True)
+def sweep_grid(  # type: ignore[no-untyped-def]
+    lo, hi, lom, him, start, count, cap, used,
+    k, origin, shape, h,
+    tile_lo, tile_hi, tile,
+    tips, moves, axes, move_ids, prims, cuts, strides, first, stats, acc, touched, counters, mat_lo, mat_hi,
+):
+    """Sweep moves ``first..`` through one dexel grid (arguments as in
+    ``kernels.sweep_moves``).
+
+    ``counters`` (6,) int64 accumulates, over all moves and primitives: rays in the
+    footprint, rays whose material range meets the sweep's range, rays whose material
+    meets the capsule/slab bound, exact intervals by a closed form, by the general
+    ``swept_interval``, and rays that lost material or overlap a body primitive.
+
+    ``mat_lo``, ``mat_hi`` (R,) float64: ``material_range`` of the grid, kept up to
+    date by the call (contiguous per row, so the material test vectorises).
+
+    ``acc`` (R,) float64 zeros and ``touched`` (R + 1,) int64 (``touched[0]``: count)
+    hold the per-ray cut of the move in progress, so a move resumed after a pool
+    overflow still reports its longest cut; both are left clean when the call ends.
+
+    Returns -1 when done, else the move at which the pool overflowed (grow, resume).
+    """
+    ia = (k + 1) % 3
+    ja = (k + 2) % 3
+    ni = shape[0]
+    nj = shape[1]
+    buf = np.empty((2, 2))
+    tipg = np.empty(3)  # grid frame: (ia, ja, k)
+    dg = np.empty(3)
+    ag = np.empty(3)
+    row_a = np.empty(max(shape[0], shape[1]) + 1)
+    row_b = np.empty(max(shape[0], shape[1]) + 1)
+    for mv in range(first, tips.shape[0]):
+        for c, w in ((0, ia), (1, ja), (2, k)):
+            tipg[c] = tips[mv, w]
+            dg[c] = moves[mv, w]
+            ag[c] = axes[mv, w]
+        zu = ag[2]
+        zd = ag[0] * dg[0] + ag[1] * dg[1] + ag[2] * dg[2]
+        uu = 1.0 - zu * zu
+        ud = dg[2] - zu * zd
+        dd = dg[0] * dg[0] + dg[1] * dg[1] + dg[2] * dg[2] - zd * zd
+        for p in range(prims.shape[0]):
+            alpha, beta, gamma = prims[p, 0], prims[p, 1], prims[p, 2]
+            zlo, zhi, rmax = prims[p, 3], prims[p, 4], prims[p, 5]
+            cutting = cuts[p]
+            step = strides[p]
+            p0, u, length, rho, exact = _capsule(tipg, dg, ag, alpha, beta, gamma, zlo, zhi,
+                                                 rmax)
+            rho2 = rho * rho
+            p1x = p0[0] + length * u[0]
+            p1y = p0[1] + length * u[1]
+            kmin = min(p0[2], p0[2] + length * u[2]) - rho
+            kmax = max(p0[2], p0[2] + length * u[2]) + rho
+            xlo = min(p0[0], p1x) - rho
+            xhi = max(p0[0], p1x) + rho
+            i0 = max(0, int(math.ceil((xlo - origin[0]) / h - 0.5)))
+            i1 = min(ni - 1, int(math.floor((xhi - origin[0]) / h - 0.5)))
+            i0 += (-i0) % step
+            qa = uu + alpha * zu * zu
+            qb = -ud - alpha * zu * zd
+            qc = dd + alpha * zd * zd
+            parallel = alpha == 0.0 and uu < _PAR
+            for ii in range(i0, i1 + 1, step):
+                ci = origin[0] + (ii + 0.5) * h
+                ylo, yhi = stadium_row(ci, p0[0], p0[1], p1x, p1y, rho)
+                if not ylo <= yhi:
+                    continue
+                j0 = max(0, int(math.ceil((ylo - origin[1]) / h - 0.5)))
+                j1 = min(nj - 1, int(math.floor((yhi - origin[1]) / h - 0.5)))
+                j0 += (-j0) % step
+                ti = ii // tile
+                mx = ci - p0[0]
+                w0 = ci - tipg[0]
+                jj = j0
+                while jj <= j1:
+                    tj = jj // tile
+                    jend = min(j1, (tj + 1) * tile - 1)
+                    if tile_lo[ti, tj] >= kmax or tile_hi[ti, tj] <= kmin:
+                        jj = jend + 1
+                        jj += (-jj) % step
+                        continue
+                    nrow = (jend - jj) // step + 1
+                    counters[0] += nrow
+                    cj0 = origin[1] + (jj + 0.5) * h
+                    capsule_row(row_a, row_b, nrow, mx, cj0 - p0[1], step * h, -p0[2],
+                                u[0], u[1], u[2], length, rho2)
+                    r0 = ii * nj + jj
+                    for m in range(nrow):
+                        ta = row_a[m]
+                        tb = row_b[m]
+                        r = r0 + m * step
+                        mlo = mat_lo[r]
+                        mhi = mat_hi[r]
+                        if not (tb > ta and ta < mhi and tb > mlo):
+                            continue
+                        counters[1] += 1
+                        if not exact:
+                            cj = cj0 + m * step * h
+                            w1 = cj - tipg[1]
+                            w2 = -tipg[2]
+                            zw = ag[0] * w0 + ag[1] * w1 + ag[2] * w2
+                            # the swept slab along the ray
+                            if abs(zu) > 1e-14:
+                                za = (zlo - zw + min(0.0, zd)) / zu
+                                zb = (zhi - zw + max(0.0, zd)) / zu
+                                sa = max(ta, min(za, zb) - _GUARD)
+                                sb = min(tb, max(za, zb) + _GUARD)
+                                if not (sb > sa and sa < mhi and sb > mlo):
+                                    continue
+                            elif zw - max(0.0, zd) > zhi or zw - min(0.0, zd) < zlo:
+                                continue
+                            counters[2] += 1
+                            wu = w2 - zw * zu
+                            wd = w0 * dg[0] + w1 * dg[1] + w2 * dg[2] - zw * zd
+                            ww = w0 * w0 + w1 * w1 + w2 * w2 - zw * zw
+                            qd = wu + alpha * zw * zu + 0.5 * beta * zu
+                            qe = -wd - alpha * zw * zd - 0.5 * beta * zd
+                            qf = ww + alpha * zw * zw + beta * zw + gamma
+                            done = False
+                            if parallel:
+                                ta, tb = parallel_cylinder_interval(qc, qe, qf, zw, zu, zd,
+                                                                    zlo, zhi)
+                                done = True
+                            elif qa > 1e-9:
+                                done, ta, tb = endpoint_interval(qa, qb, qc, qd, qe, qf, zw,
+                                                                 zu, zd, zlo, zhi)
+                            if done:
+                                counters[3] += 1
+                            else:
+                                counters[4] += 1
+                                ta, tb = swept_interval(qa, qb, qc, qd, qe, qf, zw, zu, zd,
+                                                        zlo, zhi, buf)
+                            if not (tb > ta and ta < mhi and tb > mlo):
+                                continue
+                        if cutting:
+                            got = _trim(lo, hi, lom, him, count, cap, r, start[r], count[r],
+                                        ta, tb, move_ids[mv])
+                            if got < 0.0:
+                                got = _subtract(lo, hi, lom, him, start, count, cap, used, r,
+                                                ta, tb, move_ids[mv])
+                                if got < 0.0:
+                                    return mv
+                            n = count[r]
+                            mat_lo[r] = lo[start[r]] if n > 0 else np.inf
+                            mat_hi[r] = hi[start[r] + n - 1] if n > 0 else -np.inf
+                            if got > 0.0:
+                                counters[5] += 1
+                                stats[mv, 0] += got
+                                if acc[r] == 0.0:
+                                    touched[0] += 1
+                                    touched[touched[0]] = r
+                                acc[r] += got
+                        else:
+                            got = _overlap(lo, hi, start, count, r, ta, tb)
+                            counters[5] += got > 0.0
+                            stats[mv, 2] += got
+                            stats[mv, 3] = max(stats[mv, 3], got)
+                    jj = jend + 1
+                    jj += (-jj) % step
+        longest = stats[mv, 1]
+        for m in range(1, touched[0] + 1):
+            r = touched[m]
+            longest = max(longest, acc[r])
+            acc[r] = 0.0
+        touched[0] = 0
+        stats[mv, 1] = longest
+    return -1
