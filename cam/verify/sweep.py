@@ -37,7 +37,7 @@ from cam.verify.interval import (
     parallel_cylinder_interval,
     stadium_row,
 )
-from cam.verify.kernels import MIN_PIECE, _overlap, _subtract, swept_interval
+from cam.verify.kernels import MIN_PIECE, _subtract, swept_interval_scalar
 
 _PAR = 1e-12
 _GUARD = 1e-9  # mm added to every bound
@@ -79,34 +79,13 @@ def _capsule(tip, d, ax, alpha, beta, gamma, zlo, zhi, rmax):  # type: ignore[no
 
 
 @njit(cache=True, inline="always")
-def _trim(lo, hi, lom, him, count, cap, r, base, n, a, b, move):  # type: ignore[no-untyped-def]
-    """Fast path of ``kernels._subtract`` (same result) for ``[a, b]`` meeting one
-    material interval of ray ``r`` (``n`` intervals from ``base``): trims an end, or,
-    for the last interval, splits it into a spare slot or drops it. Returns the
-    removed length, or -1 when the general path is needed (no loops that move
-    intervals here: inlined into the sweep they cost more than they save)."""
-    i = 0
-    while i < n and hi[base + i] <= a:
-        i += 1
-    if i == n or lo[base + i] >= b:
-        return 0.0
-    if i + 1 < n and lo[base + i + 1] < b:
-        return -1.0
-    x0 = lo[base + i]
-    x1 = hi[base + i]
-    keep_left = x0 < a - MIN_PIECE
-    keep_right = x1 > b + MIN_PIECE
-    if keep_left == keep_right:
-        return -1.0
-    if keep_left:
-        hi[base + i] = a
-        him[base + i] = move
-        return min(x1, b) - a
-    if keep_right:
-        lo[base + i] = b
-        lom[base + i] = move
-        return b - max(x0, a)
-    return -1.0  # unreachable
+def _add_counts(counters, c0, c1, c2, c3, c4, c5):  # type: ignore[no-untyped-def]
+    counters[0] += c0
+    counters[1] += c1
+    counters[2] += c2
+    counters[3] += c3
+    counters[4] += c4
+    counters[5] += c5
 
 
 @njit(cache=True, nogil=True)
@@ -151,12 +130,12 @@ def sweep_grid(  # type: ignore[no-untyped-def]
     ja = (k + 2) % 3
     ni = shape[0]
     nj = shape[1]
-    buf = np.empty((2, 2))
     tipg = np.empty(3)  # grid frame: (ia, ja, k)
     dg = np.empty(3)
     ag = np.empty(3)
     row_a = np.empty(max(shape[0], shape[1]) + 1)
     row_b = np.empty(max(shape[0], shape[1]) + 1)
+    n_c0 = n_c1 = n_c2 = n_c3 = n_c4 = n_c5 = 0
     for mv in range(first, tips.shape[0]):
         for c, w in ((0, ia), (1, ja), (2, k)):
             tipg[c] = tips[mv, w]
@@ -197,94 +176,142 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                 j1 = min(nj - 1, int(math.floor((yhi - origin[1]) / h - 0.5)))
                 j0 += (-j0) % step
                 ti = ii // tile
+                # trim the span to the tiles whose material can meet the sweep
+                while j0 <= j1 and (tile_lo[ti, j0 // tile] >= kmax
+                                    or tile_hi[ti, j0 // tile] <= kmin):
+                    j0 = (j0 // tile + 1) * tile
+                    j0 += (-j0) % step
+                while j1 >= j0 and (tile_lo[ti, j1 // tile] >= kmax
+                                    or tile_hi[ti, j1 // tile] <= kmin):
+                    j1 = (j1 // tile) * tile - 1
+                if j1 < j0:
+                    continue
                 mx = ci - p0[0]
                 w0 = ci - tipg[0]
-                jj = j0
-                while jj <= j1:
-                    tj = jj // tile
-                    jend = min(j1, (tj + 1) * tile - 1)
-                    if tile_lo[ti, tj] >= kmax or tile_hi[ti, tj] <= kmin:
-                        jj = jend + 1
-                        jj += (-jj) % step
+                nspan = (j1 - j0) // step + 1
+                cj0 = origin[1] + (j0 + 0.5) * h
+                capsule_row(row_a, row_b, nspan, mx, cj0 - p0[1], step * h, -p0[2],
+                            u[0], u[1], u[2], length, rho2)
+                n_c0 += nspan
+                r0 = ii * nj + j0
+                for m in range(nspan):
+                    ta = row_a[m]
+                    tb = row_b[m]
+                    r = r0 + m * step
+                    mlo = mat_lo[r]
+                    mhi = mat_hi[r]
+                    if not (tb > ta and ta < mhi and tb > mlo):
                         continue
-                    nrow = (jend - jj) // step + 1
-                    counters[0] += nrow
-                    cj0 = origin[1] + (jj + 0.5) * h
-                    capsule_row(row_a, row_b, nrow, mx, cj0 - p0[1], step * h, -p0[2],
-                                u[0], u[1], u[2], length, rho2)
-                    r0 = ii * nj + jj
-                    for m in range(nrow):
-                        ta = row_a[m]
-                        tb = row_b[m]
-                        r = r0 + m * step
-                        mlo = mat_lo[r]
-                        mhi = mat_hi[r]
+                    tj = (j0 + m * step) // tile
+                    if tile_lo[ti, tj] >= kmax or tile_hi[ti, tj] <= kmin:
+                        continue
+                    n_c1 += 1
+                    if not exact:
+                        cj = cj0 + m * step * h
+                        w1 = cj - tipg[1]
+                        w2 = -tipg[2]
+                        zw = ag[0] * w0 + ag[1] * w1 + ag[2] * w2
+                        # the swept slab along the ray
+                        if abs(zu) > 1e-14:
+                            za = (zlo - zw + min(0.0, zd)) / zu
+                            zb = (zhi - zw + max(0.0, zd)) / zu
+                            sa = max(ta, min(za, zb) - _GUARD)
+                            sb = min(tb, max(za, zb) + _GUARD)
+                            if not (sb > sa and sa < mhi and sb > mlo):
+                                continue
+                        elif zw - max(0.0, zd) > zhi or zw - min(0.0, zd) < zlo:
+                            continue
+                        n_c2 += 1
+                        wu = w2 - zw * zu
+                        wd = w0 * dg[0] + w1 * dg[1] + w2 * dg[2] - zw * zd
+                        ww = w0 * w0 + w1 * w1 + w2 * w2 - zw * zw
+                        qd = wu + alpha * zw * zu + 0.5 * beta * zu
+                        qe = -wd - alpha * zw * zd - 0.5 * beta * zd
+                        qf = ww + alpha * zw * zw + beta * zw + gamma
+                        done = False
+                        if parallel:
+                            ta, tb = parallel_cylinder_interval(qc, qe, qf, zw, zu, zd,
+                                                                zlo, zhi)
+                            done = True
+                        elif qa > 1e-9:
+                            done, ta, tb = endpoint_interval(qa, qb, qc, qd, qe, qf, zw,
+                                                             zu, zd, zlo, zhi)
+                        if done:
+                            n_c3 += 1
+                        else:
+                            n_c4 += 1
+                            ta, tb = swept_interval_scalar(qa, qb, qc, qd, qe, qf, zw, zu,
+                                                           zd, zlo, zhi)
                         if not (tb > ta and ta < mhi and tb > mlo):
                             continue
-                        counters[1] += 1
-                        if not exact:
-                            cj = cj0 + m * step * h
-                            w1 = cj - tipg[1]
-                            w2 = -tipg[2]
-                            zw = ag[0] * w0 + ag[1] * w1 + ag[2] * w2
-                            # the swept slab along the ray
-                            if abs(zu) > 1e-14:
-                                za = (zlo - zw + min(0.0, zd)) / zu
-                                zb = (zhi - zw + max(0.0, zd)) / zu
-                                sa = max(ta, min(za, zb) - _GUARD)
-                                sb = min(tb, max(za, zb) + _GUARD)
-                                if not (sb > sa and sa < mhi and sb > mlo):
-                                    continue
-                            elif zw - max(0.0, zd) > zhi or zw - min(0.0, zd) < zlo:
-                                continue
-                            counters[2] += 1
-                            wu = w2 - zw * zu
-                            wd = w0 * dg[0] + w1 * dg[1] + w2 * dg[2] - zw * zd
-                            ww = w0 * w0 + w1 * w1 + w2 * w2 - zw * zw
-                            qd = wu + alpha * zw * zu + 0.5 * beta * zu
-                            qe = -wd - alpha * zw * zd - 0.5 * beta * zd
-                            qf = ww + alpha * zw * zw + beta * zw + gamma
-                            done = False
-                            if parallel:
-                                ta, tb = parallel_cylinder_interval(qc, qe, qf, zw, zu, zd,
-                                                                    zlo, zhi)
-                                done = True
-                            elif qa > 1e-9:
-                                done, ta, tb = endpoint_interval(qa, qb, qc, qd, qe, qf, zw,
-                                                                 zu, zd, zlo, zhi)
-                            if done:
-                                counters[3] += 1
-                            else:
-                                counters[4] += 1
-                                ta, tb = swept_interval(qa, qb, qc, qd, qe, qf, zw, zu, zd,
-                                                        zlo, zhi, buf)
-                            if not (tb > ta and ta < mhi and tb > mlo):
-                                continue
-                        if cutting:
-                            got = _trim(lo, hi, lom, him, count, cap, r, start[r], count[r],
-                                        ta, tb, move_ids[mv])
-                            if got < 0.0:
-                                got = _subtract(lo, hi, lom, him, start, count, cap, used, r,
-                                                ta, tb, move_ids[mv])
-                                if got < 0.0:
-                                    return mv
-                            n = count[r]
-                            mat_lo[r] = lo[start[r]] if n > 0 else np.inf
-                            mat_hi[r] = hi[start[r] + n - 1] if n > 0 else -np.inf
-                            if got > 0.0:
-                                counters[5] += 1
-                                stats[mv, 0] += got
-                                if acc[r] == 0.0:
-                                    touched[0] += 1
-                                    touched[touched[0]] = r
-                                acc[r] += got
-                        else:
-                            got = _overlap(lo, hi, start, count, r, ta, tb)
-                            counters[5] += got > 0.0
-                            stats[mv, 2] += got
-                            stats[mv, 3] = max(stats[mv, 3], got)
-                    jj = jend + 1
-                    jj += (-jj) % step
+                    base = start[r]
+                    n = count[r]
+                    if not cutting:
+                        got = 0.0
+                        for q in range(n):
+                            x0 = max(lo[base + q], ta)
+                            x1 = min(hi[base + q], tb)
+                            if x1 > x0:
+                                got += x1 - x0
+                        n_c5 += 1 if got > 0.0 else 0
+                        stats[mv, 2] += got
+                        stats[mv, 3] = max(stats[mv, 3], got)
+                        continue
+                    # the common subtractions written out here: a helper taking the
+                    # pool arrays costs two atomic reference-count updates per array
+                    # and call, more than the subtraction itself
+                    mid = move_ids[mv]
+                    i = 0
+                    while i < n and hi[base + i] <= ta:
+                        i += 1
+                    if i == n or lo[base + i] >= tb:
+                        continue
+                    j = i
+                    got = 0.0
+                    while j < n and lo[base + j] < tb:
+                        got += min(hi[base + j], tb) - max(lo[base + j], ta)
+                        j += 1
+                    left_lo = lo[base + i]
+                    left_lom = lom[base + i]
+                    right_hi = hi[base + j - 1]
+                    right_him = him[base + j - 1]
+                    keep_left = left_lo < ta - MIN_PIECE
+                    keep_right = right_hi > tb + MIN_PIECE
+                    delta = int(keep_left) + int(keep_right) - (j - i)
+                    if delta == 0 or (j == n and (delta < 0 or n < cap[r])):
+                        # nothing to shift: rewrite the met intervals in place
+                        w = base + i
+                        if keep_left:
+                            lo[w] = left_lo
+                            lom[w] = left_lom
+                            hi[w] = ta
+                            him[w] = mid
+                            w += 1
+                        if keep_right:
+                            lo[w] = tb
+                            lom[w] = mid
+                            hi[w] = right_hi
+                            him[w] = right_him
+                        count[r] = n + delta
+                    else:
+                        got = -1.0
+                    if got < 0.0:
+                        got = _subtract(lo, hi, lom, him, start, count, cap, used, r,
+                                        ta, tb, mid)
+                        if got < 0.0:
+                            _add_counts(counters, n_c0, n_c1, n_c2, n_c3, n_c4, n_c5)
+                            return mv
+                        base = start[r]
+                    n = count[r]
+                    mat_lo[r] = lo[base] if n > 0 else np.inf
+                    mat_hi[r] = hi[base + n - 1] if n > 0 else -np.inf
+                    if got > 0.0:
+                        n_c5 += 1
+                        stats[mv, 0] += got
+                        if acc[r] == 0.0:
+                            touched[0] += 1
+                            touched[touched[0]] = r
+                        acc[r] += got
         longest = stats[mv, 1]
         for m in range(1, touched[0] + 1):
             r = touched[m]
@@ -292,4 +319,5 @@ def sweep_grid(  # type: ignore[no-untyped-def]
             acc[r] = 0.0
         touched[0] = 0
         stats[mv, 1] = longest
+    _add_counts(counters, n_c0, n_c1, n_c2, n_c3, n_c4, n_c5)
     return -1
