@@ -158,8 +158,9 @@ def parallel_cylinder_interval(  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, inline="always")
-def _static(s, qa, qb, qc, qd, qe, qf, zw, zu, zd, zlo, zhi):  # type: ignore[no-untyped-def]
-    """Ray interval of the primitive held at ``s``, with the slopes of its ends.
+def _static(s, qa, inv_qa, qb, qc, qd, qe, qf, zw, inv_zu, zd, zlo, zhi):  # type: ignore[no-untyped-def]
+    """Ray interval of the primitive held at ``s``, with the slopes of its ends
+    (``inv_qa = 1 / qa``; ``inv_zu = 1 / zu``, 0 when the ray is normal to the axis).
 
     Returns ``(ok, lo, hi, dlo, dhi)``; ``ok`` False when empty or tangent.
     """
@@ -170,19 +171,20 @@ def _static(s, qa, qb, qc, qd, qe, qf, zw, zu, zd, zlo, zhi):  # type: ignore[no
         return False, 0.0, 0.0, 0.0, 0.0
     root = math.sqrt(disc)
     q = -(b + root) if b >= 0.0 else -(b - root)
-    r1 = q / qa
+    r1 = q * inv_qa
     r2 = c / q
     cl = min(r1, r2)
     ch = max(r1, r2)
     g = qc * s + qe
-    dcl = (qb * cl + g) / root  # dt/ds = -(dQ/ds) / (dQ/dt), dQ/dt = -2 root at cl
-    dch = -(qb * ch + g) / root
-    if abs(zu) > _TINY:
-        za = (zlo - zw + zd * s) / zu
-        zb = (zhi - zw + zd * s) / zu
+    inv_root = 1.0 / root
+    dcl = (qb * cl + g) * inv_root  # dt/ds = -(dQ/ds) / (dQ/dt), dQ/dt = -2 root at cl
+    dch = -(qb * ch + g) * inv_root
+    if inv_zu != 0.0:
+        za = (zlo - zw + zd * s) * inv_zu
+        zb = (zhi - zw + zd * s) * inv_zu
         sl = min(za, zb)
         sh = max(za, zb)
-        dsl = zd / zu
+        dsl = zd * inv_zu
     else:
         z = zw - zd * s
         if z < zlo or z > zhi:
@@ -212,10 +214,14 @@ def endpoint_interval(  # type: ignore[no-untyped-def]
     Same coefficients as ``kernels.swept_interval``; needs ``qa > 0``. Returns
     ``(ok, tmin, tmax)``; ``ok`` False: use the general path.
     """
-    ok0, lo0, hi0, dlo0, dhi0 = _static(0.0, qa, qb, qc, qd, qe, qf, zw, zu, zd, zlo, zhi)
+    inv_qa = 1.0 / qa
+    inv_zu = 1.0 / zu if abs(zu) > _TINY else 0.0
+    ok0, lo0, hi0, dlo0, dhi0 = _static(0.0, qa, inv_qa, qb, qc, qd, qe, qf, zw, inv_zu, zd,
+                                        zlo, zhi)
     if not ok0:
         return False, 0.0, 0.0
-    ok1, lo1, hi1, dlo1, dhi1 = _static(1.0, qa, qb, qc, qd, qe, qf, zw, zu, zd, zlo, zhi)
+    ok1, lo1, hi1, dlo1, dhi1 = _static(1.0, qa, inv_qa, qb, qc, qd, qe, qf, zw, inv_zu, zd,
+                                        zlo, zhi)
     if not ok1:
         return False, 0.0, 0.0
     # lo convex: min at 0 if it does not fall there, at 1 if it does not rise there

@@ -1,5 +1,11 @@
 """Numba kernels of the tri-dexel engine: swept-primitive intervals and dexel subtraction.
 
+``swept_interval`` is the general, exact ray interval of a swept primitive and the
+accuracy reference of the closed forms in ``cam.verify.interval``; ``sweep_moves`` is
+the straightforward per-primitive sweep (every ray of the bounding box, the general
+interval on each), kept as the reference the fast engine ``cam.verify.sweep`` is
+tested against (tests/cam/test_verify_engine.py).
+
 A dexel grid ``k`` holds rays parallel to world axis ``k`` through the centres of a
 square grid of pitch ``h`` over the other two axes (``i = (k+1) % 3``,
 ``j = (k+2) % 3``). Each ray holds sorted, disjoint material intervals in a shared
@@ -269,7 +275,8 @@ def sweep_moves(  # type: ignore[no-untyped-def]
     tile_lo, tile_hi, tile,
     tips, moves, axes, move_ids, prims, cuts, strides, first, stats,
 ):
-    """Sweep a batch of straight fixed-axis moves through one dexel grid.
+    """Sweep a batch of straight fixed-axis moves through one dexel grid (reference
+    implementation; ``Stock.sweep`` uses ``cam.verify.sweep.sweep_grid``).
 
     Parameters
     ----------
@@ -316,7 +323,6 @@ def sweep_moves(  # type: ignore[no-untyped-def]
     ja = (k + 2) % 3
     ni = shape[0]
     nj = shape[1]
-    buf = np.empty((2, 2))
     bmin = np.empty(3)
     bmax = np.empty(3)
     for mv in range(first, tips.shape[0]):
@@ -410,7 +416,7 @@ def sweep_moves(  # type: ignore[no-untyped-def]
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def tile_bounds(lo, hi, start, count, shape, tile):  # type: ignore[no-untyped-def]
     """Per ``tile`` x ``tile`` block of rays: lowest start and highest end of material."""
     nti = (shape[0] + tile - 1) // tile

@@ -23,8 +23,8 @@ from numpy.typing import NDArray
 
 from cam.verify.dexel import DexelGrid
 from cam.verify.kernels import tile_bounds
-from cam.verify.sweep import material_range, sweep_grid
 from cam.verify.raycast import cast_mesh
+from cam.verify.sweep import material_range, sweep_grid
 from cam.verify.toolshape import ToolShape
 from impeller_cam.atomic import write_bytes_atomic
 from impeller_cam.errors import InputError
@@ -56,10 +56,12 @@ def _grid_frame(
 
 def _default_threads() -> int:
     """Threads for a sweep: ``IMPELLER_CAM_THREADS`` or the CPUs this process may use."""
-    env = os.environ.get("IMPELLER_CAM_THREADS")
-    if env:
-        return max(1, int(env))
-    return max(1, len(os.sched_getaffinity(0)))
+    env = os.environ.get("IMPELLER_CAM_THREADS", "")
+    if env.isdigit() and int(env) > 0:
+        return int(env)
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return max(1, os.cpu_count() or 1)
 
 
 def _sweep_grid(

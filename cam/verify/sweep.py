@@ -43,39 +43,27 @@ _PAR = 1e-12
 _GUARD = 1e-9  # mm added to every bound
 
 
-@njit(cache=True)
-def _capsule(tip, d, ax, alpha, beta, gamma, zlo, zhi, rmax):  # type: ignore[no-untyped-def]
-    """Bounding capsule of a swept primitive (module doc): start point (3,), unit
-    direction (3,), length, radius, and whether it is exact (a full sphere)."""
-    p0 = np.empty(3)
-    u = np.empty(3)
-    dl = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-    exact = False
+@njit(cache=True, inline="always")
+def _capsule(tx, ty, tz, dx, dy, dz, ax, ay, az,  # type: ignore[no-untyped-def]
+             alpha, beta, gamma, zlo, zhi, rmax):
+    """Bounding capsule of a swept primitive (module doc), as scalars: start point,
+    unit direction, length, radius, and whether it is exact (a full sphere)."""
+    dl = math.sqrt(dx * dx + dy * dy + dz * dz)
     if alpha == 1.0:
         zc = -0.5 * beta
-        r2 = zc * zc - gamma
-        rad = math.sqrt(max(r2, 0.0))
-        exact = zlo <= zc - rad + 1e-12 and zhi >= zc + rad - 1e-12
-    if exact:
-        for c in range(3):
-            p0[c] = tip[c] + zc * ax[c]
-        length = dl
-        rho = rad
-        for c in range(3):
-            u[c] = d[c] / dl if dl > 0.0 else 0.0
-        return p0, u, length, rho, True
+        rad = math.sqrt(max(zc * zc - gamma, 0.0))
+        if zlo <= zc - rad + 1e-12 and zhi >= zc + rad - 1e-12:
+            inv = 1.0 / dl if dl > 0.0 else 0.0
+            return (tx + zc * ax, ty + zc * ay, tz + zc * az, dx * inv, dy * inv, dz * inv,
+                    dl, rad, True)
     rho_a = rmax + 0.5 * dl  # around the axis segment at the mid move
     rho_b = math.hypot(rmax, 0.5 * (zhi - zlo))  # around the move at the mid axis
     if rho_a <= rho_b:
-        for c in range(3):
-            p0[c] = tip[c] + zlo * ax[c] + 0.5 * d[c]
-            u[c] = ax[c]
-        return p0, u, zhi - zlo, rho_a + _GUARD, False
+        return (tx + zlo * ax + 0.5 * dx, ty + zlo * ay + 0.5 * dy, tz + zlo * az + 0.5 * dz,
+                ax, ay, az, zhi - zlo, rho_a + _GUARD, False)
     zm = 0.5 * (zlo + zhi)
-    for c in range(3):
-        p0[c] = tip[c] + zm * ax[c]
-        u[c] = d[c] / dl
-    return p0, u, dl, rho_b + _GUARD, False
+    return (tx + zm * ax, ty + zm * ay, tz + zm * az, dx / dl, dy / dl, dz / dl, dl,
+            rho_b + _GUARD, False)
 
 
 @njit(cache=True, inline="always")
@@ -107,7 +95,8 @@ def sweep_grid(  # type: ignore[no-untyped-def]
     lo, hi, lom, him, start, count, cap, used,
     k, origin, shape, h,
     tile_lo, tile_hi, tile,
-    tips, moves, axes, move_ids, prims, cuts, strides, first, stats, acc, touched, counters, mat_lo, mat_hi,
+    tips, moves, axes, move_ids, prims, cuts, strides, first, stats, acc, touched, counters,
+    mat_lo, mat_hi,
 ):
     """Sweep moves ``first..`` through one dexel grid (arguments as in
     ``kernels.sweep_moves``).
@@ -151,15 +140,16 @@ def sweep_grid(  # type: ignore[no-untyped-def]
             zlo, zhi, rmax = prims[p, 3], prims[p, 4], prims[p, 5]
             cutting = cuts[p]
             step = strides[p]
-            p0, u, length, rho, exact = _capsule(tipg, dg, ag, alpha, beta, gamma, zlo, zhi,
-                                                 rmax)
+            p0x, p0y, p0z, ux, uy, uz, length, rho, exact = _capsule(
+                tipg[0], tipg[1], tipg[2], dg[0], dg[1], dg[2], ag[0], ag[1], ag[2],
+                alpha, beta, gamma, zlo, zhi, rmax)
             rho2 = rho * rho
-            p1x = p0[0] + length * u[0]
-            p1y = p0[1] + length * u[1]
-            kmin = min(p0[2], p0[2] + length * u[2]) - rho
-            kmax = max(p0[2], p0[2] + length * u[2]) + rho
-            xlo = min(p0[0], p1x) - rho
-            xhi = max(p0[0], p1x) + rho
+            p1x = p0x + length * ux
+            p1y = p0y + length * uy
+            kmin = min(p0z, p0z + length * uz) - rho
+            kmax = max(p0z, p0z + length * uz) + rho
+            xlo = min(p0x, p1x) - rho
+            xhi = max(p0x, p1x) + rho
             i0 = max(0, int(math.ceil((xlo - origin[0]) / h - 0.5)))
             i1 = min(ni - 1, int(math.floor((xhi - origin[0]) / h - 0.5)))
             i0 += (-i0) % step
@@ -169,7 +159,7 @@ def sweep_grid(  # type: ignore[no-untyped-def]
             parallel = alpha == 0.0 and uu < _PAR
             for ii in range(i0, i1 + 1, step):
                 ci = origin[0] + (ii + 0.5) * h
-                ylo, yhi = stadium_row(ci, p0[0], p0[1], p1x, p1y, rho)
+                ylo, yhi = stadium_row(ci, p0x, p0y, p1x, p1y, rho)
                 if not ylo <= yhi:
                     continue
                 j0 = max(0, int(math.ceil((ylo - origin[1]) / h - 0.5)))
@@ -186,12 +176,12 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                     j1 = (j1 // tile) * tile - 1
                 if j1 < j0:
                     continue
-                mx = ci - p0[0]
+                mx = ci - p0x
                 w0 = ci - tipg[0]
                 nspan = (j1 - j0) // step + 1
                 cj0 = origin[1] + (j0 + 0.5) * h
-                capsule_row(row_a, row_b, nspan, mx, cj0 - p0[1], step * h, -p0[2],
-                            u[0], u[1], u[2], length, rho2)
+                capsule_row(row_a, row_b, nspan, mx, cj0 - p0y, step * h, -p0z,
+                            ux, uy, uz, length, rho2)
                 n_c0 += nspan
                 r0 = ii * nj + j0
                 for m in range(nspan):
