@@ -121,8 +121,11 @@ def run_sweep(case: str, pitch: float, moves_file: str, threads: int) -> dict:
     wall, cpu = time.perf_counter(), time.process_time()
     stats = stock.sweep(tips, moves, axes, np.arange(len(tips), dtype=np.int32), shape)
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    counters = [int(sum(g.counters[i] for g in stock.grids)) for i in range(6)] if hasattr(
+        stock.grids[0], "counters") else None
     return {"removed": before - stock.volume(), "wall": wall, "cpu": cpu, "moves": len(tips),
             "cut": float(stats[:, 0].sum()), "longest": float(stats[:, 1].max()),
+            "counters": counters,
             "memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
 
@@ -188,6 +191,12 @@ def main(old: Path, thirdparty: bool) -> None:
                   f"{before['wall'] / two['wall']:.1f}x per wall s (2 threads); "
                   f"volume {'identical' if one['removed'] == two['removed'] else 'DIFFERS'}"
                   f" for 1 and 2 threads", flush=True)
+            per = [c / one["moves"] for c in one["counters"]]
+            print(f"     per move (new): {per[0]:.0f} rays in the footprint, {per[1]:.0f} whose "
+                  f"material meets the capsule, {per[3]:.0f} closed-form and {per[4]:.0f} "
+                  f"general intervals, {per[5]:.0f} rays changed; "
+                  f"{1e9 * one['cpu'] / one['counters'][0]:.1f} ns CPU per footprint ray, "
+                  f"{1e9 * one['cpu'] / one['counters'][5]:.0f} ns per changed ray", flush=True)
         if case == "3axis":
             print(f"  closed form 3-axis volume {exact3:.4f} mm3")
     if thirdparty:
