@@ -102,9 +102,10 @@ def sweep_grid(  # type: ignore[no-untyped-def]
     ``kernels.sweep_moves``).
 
     ``counters`` (6,) int64 accumulates, over all moves and primitives: rays in the
-    footprint, rays whose material range meets the sweep's range, rays whose material
-    meets the capsule/slab bound, exact intervals by a closed form, by the general
-    ``swept_interval``, and rays that lost material or overlap a body primitive.
+    footprint spans, rays whose material range meets the capsule's interval, of those
+    (primitives other than a full ball) rays whose material range meets it cut to the
+    swept slab, exact intervals by a closed form, by the general ``swept_interval``,
+    and rays that lost material or overlap a body primitive.
 
     ``mat_lo``, ``mat_hi`` (R,) float64: ``material_range`` of the grid, kept up to
     date by the call (contiguous per row, so the material test vectorises).
