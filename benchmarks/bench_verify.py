@@ -1,39 +1,45 @@
-"""Benchmark: tri-dexel material removal against manifold3d boolean subtraction.
+"""Benchmark: the tri-dexel engine against today's engine (commit 7e9ac6f), one run.
 
-Same moves, same tool, side by side, one run:
+Same moves, same tool (6 mm ball, 12 mm flutes), same stock, side by side:
 
-* **3-axis**: a 6 mm ball end mill cutting six parallel slots (plunge + 12 collinear
-  feed moves + retract each) into a 60 x 44 x 15 mm box. The slots do not touch, so
-  the removed volume has a closed form (``tests/cam/test_verify_volume.py``).
-* **5-axis**: the same ball end mill on 8 joint-mode blocks of the LinuxCNC
-  ``xyzac-trt`` machine whose A and C turn inside each block, subdivided by
-  ``cam.verify.motion`` within 0.01 mm; both engines remove exactly the same
-  sub-moves (manifold: convex hull of the tool's ball and flute cylinder at the two
-  ends of a sub-move - the exact sweep of a convex piece along a straight move).
+* **3-axis**: six parallel slots (plunge + 12 collinear 2 mm feed moves + retract
+  each) into a 60 x 44 x 15 mm box, 89 moves; the removed volume has a closed form
+  (``tests/cam/test_verify_volume.py``).
+* **5-axis**: 8 joint-mode blocks of the LinuxCNC ``xyzac-trt`` machine whose A and C
+  turn inside each block, subdivided by ``cam.verify.motion`` within 0.01 mm: 914
+  short sub-moves (0.047 mm on average) in a 36 x 28 x 10 mm box.
 
-manifold3d runs at increasing numbers of circular segments; each dexel run is compared
-with the most accurate manifold run that is not more accurate than it (so the dexel
-engine has equal or better volume accuracy). References: the closed form (3-axis); the dexel
-engine at 0.025 mm (5-axis, not timed; across-ray error falls like h^1.5). Each engine
-and resolution runs in a fresh subprocess, so peak memory (``ru_maxrss``) is its own.
+The moves are made once, in this process, and handed to every engine run through
+one ``.npz`` file, so old and new sweep exactly the same moves. Each engine and
+resolution runs in a fresh subprocess (the old one with ``PYTHONPATH`` set to a
+checkout of 7e9ac6f, ``--old``, default ``/work/wt/base``); CPU seconds are the
+child's own (``time.process_time``, all threads), wall seconds its elapsed time. The
+new engine runs with one thread and with two (one grid per thread): its results are
+the same, only the wall time differs.
 
-Run: ``python benchmarks/bench_verify.py`` (about a few minutes on 2 cores).
+``--thirdparty`` adds LinuxCNC's 7-blade impeller demo (``run_verify`` end to end
+without renders, 0.1 mm): CPU and wall seconds, sub-moves, removed volume and the
+events of each engine. The old engine needs about 340 s of CPU there.
+
+Run: ``python benchmarks/bench_verify.py [--thirdparty] [--old PATH]``.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
+import os
 import resource
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 R = 3.0
 FLUTE = 12.0
@@ -41,6 +47,11 @@ BOXES = {
     "3axis": (np.array([-30.0, -22.0, -15.0]), np.array([30.0, 22.0, 0.0])),
     "5axis": (np.array([-18.0, -14.0, -10.0]), np.array([18.0, 14.0, 0.0])),
 }
+DEMO = Path(
+    "/usr/share/doc/linuxcnc/examples/sample-configs/sim/axis/vismach/5axis/"
+    "table-rotary-tilting/demos/impeller-7bl-xyzac.ngc"
+)
+THIRD = ROOT / "fixtures" / "nc" / "thirdparty"
 
 
 def three_axis_moves() -> tuple[np.ndarray, np.ndarray, float]:
@@ -92,126 +103,131 @@ def _tool():  # type: ignore[no-untyped-def]
                 flute_length=FLUTE, shank_diameter=2 * R, stickout=FLUTE)
 
 
-# ---------------------------------------------------------------------- engines
-def run_dexel(case: str, pitch: float) -> dict:
+# ---------------------------------------------------------------------- children
+def run_sweep(case: str, pitch: float, moves_file: str, threads: int) -> dict:
+    """Sweep the saved moves of ``case`` with whichever ``cam`` is on the path."""
     from cam.verify.stock import Stock
     from cam.verify.toolshape import tool_shape
 
+    data = np.load(moves_file)
+    tips, moves, axes = data[f"{case}_tips"], data[f"{case}_moves"], data[f"{case}_axes"]
     shape = tool_shape(_tool())
-    if case == "3axis":
-        pts, axes, _ = three_axis_moves()
-        tips, moves, axes = pts[:-1], np.diff(pts, axis=0), axes[:-1]
-    else:
-        tips, moves, axes = five_axis_moves()
     warm = Stock.box([-1, -1, -1], [1, 1, 0], 0.5)
-    warm.sweep(tips[:1] * 0, moves[:1] * 0, axes[:1], np.zeros(1, np.int32), shape)
+    warm.sweep(tips[:2] * 0, moves[:2] * 0, axes[:2], np.zeros(2, np.int32), shape)
     stock = Stock.box(BOXES[case][0], BOXES[case][1], pitch)
+    if threads:
+        stock.threads = threads
     before = stock.volume()
     wall, cpu = time.perf_counter(), time.process_time()
-    stock.sweep(tips, moves, axes, np.arange(len(tips), dtype=np.int32), shape)
+    stats = stock.sweep(tips, moves, axes, np.arange(len(tips), dtype=np.int32), shape)
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    counters = [int(sum(g.counters[i] for g in stock.grids)) for i in range(6)] if hasattr(
+        stock.grids[0], "counters") else None
     return {"removed": before - stock.volume(), "wall": wall, "cpu": cpu, "moves": len(tips),
-            "memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-            "stock_mb": stock.memory_bytes() / 2**20}
-
-
-def _frame(axis: np.ndarray) -> np.ndarray:
-    """Rotation (3, 3) taking +Z to ``axis``."""
-    z = axis / np.linalg.norm(axis)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = np.cross(helper, z)
-    x /= np.linalg.norm(x)
-    return np.column_stack([x, np.cross(z, x), z])
-
-
-def run_manifold(case: str, segments: int) -> dict:
-    import manifold3d as mf
-
-    if case == "3axis":
-        pts, axes, _ = three_axis_moves()
-        tips, moves, axes = pts[:-1], np.diff(pts, axis=0), axes[:-1]
-    else:
-        tips, moves, axes = five_axis_moves()
-    ball = np.asarray(mf.Manifold.sphere(R, segments).to_mesh().vert_properties)[:, :3]
-    ball = ball + np.array([0.0, 0.0, R])
-    flute = np.asarray(
-        mf.Manifold.cylinder(FLUTE - R, R, R, segments).to_mesh().vert_properties
-    )[:, :3] + np.array([0.0, 0.0, R])
-    lo, hi = BOXES[case]
-    stock = mf.Manifold.cube(hi - lo).translate(lo)
-    before = stock.volume()
-    wall, cpu = time.perf_counter(), time.process_time()
-    for tip, move, axis in zip(tips, moves, axes, strict=True):
-        rot = _frame(axis)
-        for piece in (ball, flute):
-            local = piece @ rot.T
-            hull = mf.Manifold.hull_points(np.vstack([local + tip, local + tip + move]))
-            stock = stock - hull
-    volume = stock.volume()  # forces evaluation
-    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
-    return {"removed": before - volume, "wall": wall, "cpu": cpu, "moves": len(tips),
+            "cut": float(stats[:, 0].sum()), "longest": float(stats[:, 1].max()),
+            "counters": counters,
             "memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
 
-def _child(engine: str, case: str, param: float) -> dict:
+def run_demo(pitch: float) -> dict:
+    """LinuxCNC's impeller demo through ``run_verify`` (no renders)."""
+    from cam.verify.command import VerifyOptions, run_verify
+
+    out = Path(tempfile.mkdtemp()) / "out"
+    wall, cpu = time.perf_counter(), time.process_time()
+    run_verify([DEMO], ROOT / "fixtures" / "machines" / "xyzac-trt.toml",
+               f"{THIRD / 'tools.toml'}:ball4_long", str(THIRD / "impeller-7bl-blank.stl"),
+               None, pitch, out, options=VerifyOptions(render=False), progress=False)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    data = json.loads((out / "verify.json").read_text())
+    events = sorted((e["type"], e["line"], round(e["amount"], 4)) for e in data["events"])
+    return {"wall": wall, "cpu": cpu, "moves": data["programs"][0]["sub_moves"],
+            "removed": data["removed_volume_mm3"], "counts": data["event_counts"],
+            "events": events,
+            "memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+
+
+def _child(engine: str, old: Path, *args: str) -> dict:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(old if engine == "old" else ROOT)
     out = subprocess.run(
-        [sys.executable, __file__, "--one", engine, case, str(param)],
-        check=True, capture_output=True, text=True, cwd=ROOT,
+        [sys.executable, __file__, "--one", engine, *args],
+        check=True, capture_output=True, text=True, cwd=ROOT, env=env,
     )
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def _compare(case: str, pitch: float, dex: dict, tried: list[tuple[int, dict]]) -> None:
-    """Ratio against the most accurate manifold run that is not more accurate than
-    the dexel run (so the dexel engine has equal or better accuracy)."""
-    worse = [(seg, res) for seg, res in tried if res["err"] >= dex["err"]]
-    if not worse:
-        seg, man = tried[0]
-        note = "manifold more accurate at every segment count tried"
-    else:
-        seg, man = worse[-1]
-        note = "dexel error <= manifold error"
-    print(f"  {case} dexel {pitch} mm vs manifold {seg} segments: "
-          f"{man['wall'] / dex['wall']:.1f}x faster (wall), "
-          f"{man['cpu'] / dex['cpu']:.1f}x (cpu); {note}")
+def _row(name: str, res: dict, ref: float) -> str:
+    err = 100 * (res["removed"] - ref) / ref
+    return (f"{name:22s} {res['moves']:6d} {res['cpu']:8.3f} {res['wall']:8.3f} "
+            f"{res['moves'] / res['cpu']:10.0f} {res['moves'] / res['wall']:10.0f} "
+            f"{res['removed']:12.4f} {err:+9.5f} {res['memory_mb']:7.0f}")
 
 
-def main() -> None:
-    header = "case    engine              moves  wall s   cpu s  moves/s(cpu)  vol err %  peak MB"
-    print(header)
-    _, _, exact3 = three_axis_moves()
-    # 5-axis reference: the dexel engine at 0.025 mm (its volume error falls like
-    # h^1.5 across the rays and is exact along them; 0.1 -> 0.025 mm divides it by 8)
-    reference = {"3axis": exact3, "5axis": _child("dexel", "5axis", 0.025)["removed"]}
-    segment_counts = {"3axis": (24, 32, 48, 64, 96, 128, 192), "5axis": (24, 32, 48, 64)}
+def main(old: Path, thirdparty: bool) -> None:
+    sys.path.insert(0, str(ROOT))
+    pts, axes3, exact3 = three_axis_moves()
+    tips5, moves5, axes5 = five_axis_moves()
+    moves_file = Path(tempfile.mkdtemp()) / "moves.npz"
+    np.savez(moves_file, **{
+        "3axis_tips": pts[:-1], "3axis_moves": np.diff(pts, axis=0), "3axis_axes": axes3[:-1],
+        "5axis_tips": tips5, "5axis_moves": moves5, "5axis_axes": axes5,
+    })
+    print(f"old engine: {old} (7e9ac6f); new engine: {ROOT}")
+    print(f"{'case':22s} {'moves':>6s} {'cpu s':>8s} {'wall s':>8s} {'moves/cpu s':>10s} "
+          f"{'moves/wall s':>10s} {'removed mm3':>12s} {'vs old %':>9s} {'peak MB':>7s}")
     for case in ("3axis", "5axis"):
-        rows: list[tuple[str, dict]] = []
-        dexel = {}
         for pitch in (0.1, 0.05):
-            res = _child("dexel", case, pitch)
-            res["err"] = 100 * abs(res["removed"] - reference[case]) / reference[case]
-            dexel[pitch] = res
-            rows.append((f"{case} dexel {pitch}", res))
-        tried: list[tuple[int, dict]] = []
-        for segments in segment_counts[case]:
-            res = _child("manifold", case, segments)
-            res["err"] = 100 * abs(res["removed"] - reference[case]) / reference[case]
-            tried.append((segments, res))
-            rows.append((f"{case} manifold {segments}seg", res))
-            if res["err"] < dexel[0.05]["err"]:
-                break
-        for name, res in rows:
-            print(f"{name:27s} {res['moves']:5d} {res['wall']:7.2f} {res['cpu']:7.2f} "
-                  f"{res['moves'] / res['cpu']:12.1f} {res['err']:9.4f} {res['memory_mb']:8.0f}",
-                  flush=True)
-        for pitch in (0.1, 0.05):
-            _compare(case, pitch, dexel[pitch], tried)
+            args = (case, str(pitch), str(moves_file))
+            before = _child("old", old, *args, "0")
+            one = _child("new", old, *args, "1")
+            two = _child("new", old, *args, "2")
+            ref = before["removed"]
+            print(_row(f"{case} {pitch} old", before, ref))
+            print(_row(f"{case} {pitch} new 1 thread", one, ref))
+            print(_row(f"{case} {pitch} new 2 threads", two, ref))
+            print(f"  -> {before['cpu'] / one['cpu']:.1f}x moves per CPU s (1 thread), "
+                  f"{before['cpu'] / two['cpu']:.1f}x (2 threads), "
+                  f"{before['wall'] / two['wall']:.1f}x per wall s (2 threads); "
+                  f"volume {'identical' if one['removed'] == two['removed'] else 'DIFFERS'}"
+                  f" for 1 and 2 threads", flush=True)
+            per = [c / one["moves"] for c in one["counters"]]
+            print(f"     per move (new): {per[0]:.0f} rays in the footprint, {per[1]:.0f} whose "
+                  f"material meets the capsule, {per[3]:.0f} closed-form and {per[4]:.0f} "
+                  f"general intervals, {per[5]:.0f} rays changed; "
+                  f"{1e9 * one['cpu'] / one['counters'][0]:.1f} ns CPU per footprint ray, "
+                  f"{1e9 * one['cpu'] / one['counters'][5]:.0f} ns per changed ray", flush=True)
+        if case == "3axis":
+            print(f"  closed form 3-axis volume {exact3:.4f} mm3")
+    if thirdparty:
+        print("\nLinuxCNC impeller-7bl-xyzac.ngc, 0.1 mm, run_verify without renders")
+        results = {}
+        for engine in ("new", "old"):
+            res = _child(engine, old, "demo", "0.1", "-", "0")
+            results[engine] = res
+            print(f"  {engine}: {res['moves']} sub-moves, {res['cpu']:.1f} s CPU, "
+                  f"{res['wall']:.1f} s wall, removed {res['removed']:.3f} mm3, "
+                  f"peak {res['memory_mb']:.0f} MB, events {res['counts']}", flush=True)
+        same = [tuple(e[:2]) for e in results["new"]["events"]] == [
+            tuple(e[:2]) for e in results["old"]["events"]]
+        print(f"  events (type, line) {'the same' if same else 'DIFFER'}; "
+              f"old {results['old']['events']}; new {results['new']['events']}")
+        print(f"  -> {results['old']['cpu'] / results['new']['cpu']:.1f}x CPU, "
+              f"{results['old']['wall'] / results['new']['wall']:.1f}x wall")
 
 
 if __name__ == "__main__":
-    if len(sys.argv) == 5 and sys.argv[1] == "--one":
-        engine, case, param = sys.argv[2], sys.argv[3], float(sys.argv[4])
-        result = run_dexel(case, param) if engine == "dexel" else run_manifold(case, int(param))
-        print(json.dumps(result))
+    if len(sys.argv) >= 2 and sys.argv[1] == "--one":
+        engine, case, pitch, moves_file, threads = sys.argv[2:7]
+        if case == "demo":
+            print(json.dumps(run_demo(float(pitch))))
+        else:
+            print(json.dumps(run_sweep(case, float(pitch), moves_file, int(threads))))
     else:
-        main()
+        parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+        parser.add_argument("--thirdparty", action="store_true",
+                            help="also LinuxCNC's impeller demo at 0.1 mm (old: ~340 s CPU)")
+        parser.add_argument("--old", type=Path, default=Path("/work/wt/base"),
+                            help="checkout of today's engine (commit 7e9ac6f)")
+        ns = parser.parse_args()
+        main(ns.old, ns.thirdparty)

@@ -30,8 +30,9 @@ from impeller_cam.progress import progress_bar
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
 from postproc.program import Motion
 
-#: Sub-moves swept per kernel call (progress granularity).
-BATCH = 2000
+#: Sub-moves swept per kernel call (progress granularity; each call also scans the
+#: grids once for their material bounds, so fewer calls cost less).
+BATCH = 20000
 #: Events of one type per program kept in the outputs (largest first).
 MAX_EVENTS_PER_TYPE = 200
 

@@ -8,7 +8,7 @@ intervals than it has room for, and give back volume and surface samples.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
@@ -77,6 +77,8 @@ class DexelGrid:
     count: NDArray[np.int32]
     cap: NDArray[np.int32]
     used: NDArray[np.int64]
+    #: Sweep diagnostics accumulated by ``sweep.sweep_grid`` (see there).
+    counters: NDArray[np.int64] = field(default_factory=lambda: np.zeros(6, np.int64))
 
     @classmethod
     def from_intervals(

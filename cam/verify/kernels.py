@@ -1,5 +1,11 @@
 """Numba kernels of the tri-dexel engine: swept-primitive intervals and dexel subtraction.
 
+``swept_interval`` is the general, exact ray interval of a swept primitive and the
+accuracy reference of the closed forms in ``cam.verify.interval``; ``sweep_moves`` is
+the straightforward per-primitive sweep (every ray of the bounding box, the general
+interval on each), kept as the reference the fast engine ``cam.verify.sweep`` is
+tested against (tests/cam/test_verify_engine.py).
+
 A dexel grid ``k`` holds rays parallel to world axis ``k`` through the centres of a
 square grid of pitch ``h`` over the other two axes (``i = (k+1) % 3``,
 ``j = (k+2) % 3``). Each ray holds sorted, disjoint material intervals in a shared
@@ -51,8 +57,8 @@ def _feasible(t, s, zw, zu, zd, zlo, zhi):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def _line_roots(ct, cs, c0, qa, qb, qc, qd, qe, qf, out):  # type: ignore[no-untyped-def]
-    """Points of ``ct t + cs s + c0 = 0`` on ``Q = 0``; writes (t, s) pairs, returns count.
+def _line_roots(ct, cs, c0, qa, qb, qc, qd, qe, qf):  # type: ignore[no-untyped-def]
+    """Points of ``ct t + cs s + c0 = 0`` on ``Q = 0``: ``(count, t1, s1, t2, s2)``.
 
     The line is walked with a unit direction, so the quadratic's coefficients keep
     the scale of ``Q`` itself; a short move makes ``ct``, ``cs`` tiny (the tangency
@@ -61,7 +67,7 @@ def _line_roots(ct, cs, c0, qa, qb, qc, qd, qe, qf, out):  # type: ignore[no-unt
     """
     nrm = math.sqrt(ct * ct + cs * cs)
     if nrm < _TINY:
-        return 0
+        return 0, 0.0, 0.0, 0.0, 0.0
     ct /= nrm
     cs /= nrm
     c0 /= nrm
@@ -74,26 +80,20 @@ def _line_roots(ct, cs, c0, qa, qb, qc, qd, qe, qf, out):  # type: ignore[no-unt
     a0 = _q(p0t, p0s, qa, qb, qc, qd, qe, qf)
     if a2 == 0.0:
         if a1 == 0.0:
-            return 0
+            return 0, 0.0, 0.0, 0.0, 0.0
         lam = -a0 / a1
-        out[0, 0] = p0t + lam * qt
-        out[0, 1] = p0s + lam * qs
-        return 1
+        return 1, p0t + lam * qt, p0s + lam * qs, 0.0, 0.0
     disc = a1 * a1 - 4.0 * a2 * a0
     if disc < 0.0:
         if disc > -1e-10 * (a1 * a1 + abs(4.0 * a2 * a0)):
             disc = 0.0
         else:
-            return 0
+            return 0, 0.0, 0.0, 0.0, 0.0
     root = math.sqrt(disc)
     qq = -0.5 * (a1 + root if a1 >= 0.0 else a1 - root)
     lam1 = qq / a2
     lam2 = a0 / qq if qq != 0.0 else lam1
-    out[0, 0] = p0t + lam1 * qt
-    out[0, 1] = p0s + lam1 * qs
-    out[1, 0] = p0t + lam2 * qt
-    out[1, 1] = p0s + lam2 * qs
-    return 2
+    return 2, p0t + lam1 * qt, p0s + lam1 * qs, p0t + lam2 * qt, p0s + lam2 * qs
 
 
 @njit(cache=True)
@@ -112,8 +112,18 @@ def swept_interval(  # type: ignore[no-untyped-def]
 
     Parameters are the coefficients of ``Q(t, s) = qa t^2 + 2 qb t s + qc s^2 + 2 qd t
     + 2 qe s + qf`` and of the tool-frame height ``z = zw + zu t - zd s``; ``buf`` is
-    a (2, 2) scratch array. Returns ``(tmin, tmax)``; ``tmin > tmax`` when empty.
+    unused (kept for callers of the earlier signature). Returns ``(tmin, tmax)``;
+    ``tmin > tmax`` when empty.
     """
+    return swept_interval_scalar(qa, qb, qc, qd, qe, qf, zw, zu, zd, zlo, zhi)
+
+
+@njit(cache=True)
+def swept_interval_scalar(  # type: ignore[no-untyped-def]
+    qa, qb, qc, qd, qe, qf, zw, zu, zd, zlo, zhi
+):
+    """``swept_interval`` without the scratch array (scalars only: no reference
+    counting when called from a compiled loop)."""
     tmin = np.inf
     tmax = -np.inf
     # (1) corners of the slab lines with s = 0 and s = 1
@@ -137,10 +147,10 @@ def swept_interval(  # type: ignore[no-untyped-def]
             ct, cs, c0 = zu, -zd, zw - zhi
         else:
             ct, cs, c0 = qb, qc, qe
-        n = _line_roots(ct, cs, c0, qa, qb, qc, qd, qe, qf, buf)
+        n, t1, s1, t2, s2 = _line_roots(ct, cs, c0, qa, qb, qc, qd, qe, qf)
         for m in range(n):
-            t = buf[m, 0]
-            s = buf[m, 1]
+            t = t1 if m == 0 else t2
+            s = s1 if m == 0 else s2
             if _feasible(t, s, zw, zu, zd, zlo, zhi) and _on_conic(t, s, qa, qb, qc, qd, qe, qf):
                 tmin = min(tmin, t)
                 tmax = max(tmax, t)
@@ -265,7 +275,8 @@ def sweep_moves(  # type: ignore[no-untyped-def]
     tile_lo, tile_hi, tile,
     tips, moves, axes, move_ids, prims, cuts, strides, first, stats,
 ):
-    """Sweep a batch of straight fixed-axis moves through one dexel grid.
+    """Sweep a batch of straight fixed-axis moves through one dexel grid (reference
+    implementation; ``Stock.sweep`` uses ``cam.verify.sweep.sweep_grid``).
 
     Parameters
     ----------
@@ -312,7 +323,6 @@ def sweep_moves(  # type: ignore[no-untyped-def]
     ja = (k + 2) % 3
     ni = shape[0]
     nj = shape[1]
-    buf = np.empty((2, 2))
     bmin = np.empty(3)
     bmax = np.empty(3)
     for mv in range(first, tips.shape[0]):
@@ -387,8 +397,8 @@ def sweep_moves(  # type: ignore[no-untyped-def]
                             qd = wu + alpha * zw * zu + 0.5 * beta * zu
                             qe = -wd - alpha * zw * zd - 0.5 * beta * zd
                             qf = ww + alpha * zw * zw + beta * zw + gamma
-                            ta, tb = swept_interval(
-                                qa, qb, qc, qd, qe, qf, zw, zu, zd, zlo, zhi, buf
+                            ta, tb = swept_interval_scalar(
+                                qa, qb, qc, qd, qe, qf, zw, zu, zd, zlo, zhi
                             )
                             if not tb > ta:
                                 continue
@@ -406,7 +416,7 @@ def sweep_moves(  # type: ignore[no-untyped-def]
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def tile_bounds(lo, hi, start, count, shape, tile):  # type: ignore[no-untyped-def]
     """Per ``tile`` x ``tile`` block of rays: lowest start and highest end of material."""
     nti = (shape[0] + tile - 1) // tile

@@ -14,14 +14,17 @@ state, docs/formats.md).
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from cam.verify.dexel import DexelGrid
-from cam.verify.kernels import sweep_moves, tile_bounds
+from cam.verify.kernels import tile_bounds
 from cam.verify.raycast import cast_mesh
+from cam.verify.sweep import material_range, sweep_grid
 from cam.verify.toolshape import ToolShape
 from impeller_cam.atomic import write_bytes_atomic
 from impeller_cam.errors import InputError
@@ -49,6 +52,47 @@ def _grid_frame(
     ca = origin[0] + (np.arange(n_a) + 0.5) * pitch
     cb = origin[1] + (np.arange(n_b) + 0.5) * pitch
     return origin, (n_a, n_b), ca, cb
+
+
+def _default_threads() -> int:
+    """Threads for a sweep: ``IMPELLER_CAM_THREADS`` or the CPUs this process may use."""
+    env = os.environ.get("IMPELLER_CAM_THREADS", "")
+    if env.isdigit() and int(env) > 0:
+        return int(env)
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return max(1, os.cpu_count() or 1)
+
+
+def _sweep_grid(
+    grid: DexelGrid,
+    tips: NDArray[np.float64],
+    moves: NDArray[np.float64],
+    axes: NDArray[np.float64],
+    ids: NDArray[np.int32],
+    prims: NDArray[np.float64],
+    cuts: NDArray[np.bool_],
+    strides: NDArray[np.int64],
+) -> NDArray[np.float64]:
+    """All moves through one grid (compiled, releases the GIL); stats (m, 4)."""
+    stats = np.zeros((len(tips), 4))
+    n_rays = len(grid.count)
+    acc = np.zeros(n_rays)
+    touched = np.zeros(n_rays + 1, np.int64)
+    first = 0
+    t_lo, t_hi = tile_bounds(grid.lo, grid.hi, grid.start, grid.count, grid.shape, TILE)
+    mat_lo, mat_hi = material_range(grid.lo, grid.hi, grid.start, grid.count)
+    while True:
+        failed = sweep_grid(
+            grid.lo, grid.hi, grid.lo_move, grid.hi_move, grid.start, grid.count,
+            grid.cap, grid.used, grid.k, grid.origin, grid.shape, grid.pitch,
+            t_lo, t_hi, TILE, tips, moves, axes, ids, prims, cuts, strides, first, stats,
+            acc, touched, grid.counters, mat_lo, mat_hi,
+        )
+        if failed < 0:
+            return stats
+        grid.grow()
+        first = failed
 
 
 class Stock:
@@ -80,6 +124,9 @@ class Stock:
         self.lower = np.asarray(lower, dtype=np.float64)
         self.upper = np.asarray(upper, dtype=np.float64)
         self.owners: list[tuple[str, int]] = []
+        #: Threads of a sweep (one grid each; None: ``_default_threads``). The grids
+        #: are independent, so the result does not depend on it.
+        self.threads: int | None = None
 
     # ------------------------------------------------------------------ constructors
     @staticmethod
@@ -272,20 +319,14 @@ class Stock:
         strides = np.ones(len(prims), np.int64)
         strides[len(shape.cutter) :] = max(1, int(round(probe_pitch / self.pitch)))
         out = np.zeros((len(tips), 3))
-        for grid in self.grids:
-            stats = np.zeros((len(tips), 4))
-            first = 0
-            t_lo, t_hi = tile_bounds(grid.lo, grid.hi, grid.start, grid.count, grid.shape, TILE)
-            while True:
-                failed = sweep_moves(
-                    grid.lo, grid.hi, grid.lo_move, grid.hi_move, grid.start, grid.count,
-                    grid.cap, grid.used, grid.k, grid.origin, grid.shape, grid.pitch,
-                    t_lo, t_hi, TILE, tips, moves, axes, ids, prims, cuts, strides, first, stats,
-                )
-                if failed < 0:
-                    break
-                grid.grow()
-                first = failed
+        job = (tips, moves, axes, ids, prims, cuts, strides)
+        threads = self.threads if self.threads is not None else _default_threads()
+        if threads > 1 and len(tips) > 1:
+            with ThreadPoolExecutor(max_workers=min(threads, 3)) as pool:
+                per_grid = list(pool.map(lambda g: _sweep_grid(g, *job), self.grids))
+        else:
+            per_grid = [_sweep_grid(g, *job) for g in self.grids]
+        for grid, stats in zip(self.grids, per_grid, strict=True):  # fixed order
             out[:, 0] += stats[:, 0] * grid.pitch**2 / 3.0
             out[:, 1] = np.maximum(out[:, 1], stats[:, 1])
             out[:, 2] = np.maximum(out[:, 2], stats[:, 3])

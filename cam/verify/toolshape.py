@@ -13,8 +13,9 @@ sweep along a straight move is convex and a dexel line meets it in one interval.
 
 Shapes:
 
-* ball end: sphere cap ``[0, R]`` (the lower hemisphere) + cylinder ``[R, flute]``:
-  exact;
+* ball end: the ball ``[0, 2R]`` (only its lower half ``[0, R]`` when the flutes
+  are shorter than ``2R``) + cylinder ``[R, flute]``: exact (the upper half of the
+  ball lies inside the flute cylinder);
 * flat end: cylinder ``[0, flute]``: exact;
 * bull-nose: the torus corner is replaced by ``corner_segments`` frusta whose vertex
   radii are pushed out by half the chord sagitta, so the profile error is below the
@@ -113,7 +114,10 @@ def tool_shape(tool: Tool, corner_segments: int = CORNER_SEGMENTS) -> ToolShape:
     rows: list[NDArray[np.float64]] = []
     error = 0.0
     if tool.shape == "ball":
-        rows.append(sphere_cap(radius, radius, 0.0, radius))
+        # the whole ball when the flutes cover its upper half (the union with the
+        # flute cylinder is the same tool): its sweep is a capsule, a closed form
+        top = 2.0 * radius if flute >= 2.0 * radius else radius
+        rows.append(sphere_cap(radius, radius, 0.0, top))
         if flute > radius:
             rows.append(frustum(radius, flute, radius, radius))
     elif tool.shape == "flat" or corner <= 0.0:

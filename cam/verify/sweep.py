@@ -1,0 +1,314 @@
+"""The batched dexel sweep: straight fixed-axis moves through one grid, compiled.
+
+One call of ``sweep_grid`` takes a whole batch of moves (no Python per move). Per
+move and tool primitive it visits only rays that can meet the sweep and that still
+hold material there, in three filters of rising cost:
+
+1. **footprint**: every swept primitive lies in a capsule (points within ``rho`` of a
+   segment): a full sphere's sweep *is* the capsule around the travelled segment of
+   its centre; any other primitive lies within ``rmax`` of the parallelogram its axis
+   sweeps, hence in a capsule around the axis at the mid move (``rmax + |d|/2``) or
+   around the move at the mid axis (``hypot(rmax, (zhi - zlo)/2)``), the thinner of
+   the two. Per grid row, ``interval.stadium_row`` gives the span of rays inside the
+   capsule's projection; blocks of ``tile`` x ``tile`` rays whose material range
+   misses the sweep's range along the rays are skipped;
+2. **material**: the capsule's interval on the ray (exact for a sphere), cut to the
+   swept slab ``zlo <= z <= zhi``, against the ray's material range: no overlap, no
+   more work (the early-out for rays whose material is already gone there);
+3. **exact interval**: the closed forms of ``cam.verify.interval`` where they apply,
+   else ``kernels.swept_interval`` (the general path and accuracy reference).
+
+Semantics are those of the per-primitive sweep in ``kernels``: moves in order, and
+within a move the cutting primitives before the body probes on each ray; per move
+the removed length, the longest cut of the cutter along one ray (the cutter's
+primitives together), the overlap sum and the longest overlap of one body primitive.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from cam.verify.interval import (
+    capsule_row,
+    endpoint_interval,
+    parallel_cylinder_interval,
+    stadium_row,
+)
+from cam.verify.kernels import MIN_PIECE, _subtract, swept_interval_scalar
+
+_PAR = 1e-12
+_GUARD = 1e-9  # mm added to every bound
+
+
+@njit(cache=True, inline="always")
+def _capsule(tx, ty, tz, dx, dy, dz, ax, ay, az,  # type: ignore[no-untyped-def]
+             alpha, beta, gamma, zlo, zhi, rmax):
+    """Bounding capsule of a swept primitive (module doc), as scalars: start point,
+    unit direction, length, radius, and whether it is exact (a full sphere)."""
+    dl = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if alpha == 1.0:
+        zc = -0.5 * beta
+        rad = math.sqrt(max(zc * zc - gamma, 0.0))
+        if zlo <= zc - rad + 1e-12 and zhi >= zc + rad - 1e-12:
+            inv = 1.0 / dl if dl > 0.0 else 0.0
+            return (tx + zc * ax, ty + zc * ay, tz + zc * az, dx * inv, dy * inv, dz * inv,
+                    dl, rad, True)
+    rho_a = rmax + 0.5 * dl  # around the axis segment at the mid move
+    rho_b = math.hypot(rmax, 0.5 * (zhi - zlo))  # around the move at the mid axis
+    if rho_a <= rho_b:
+        return (tx + zlo * ax + 0.5 * dx, ty + zlo * ay + 0.5 * dy, tz + zlo * az + 0.5 * dz,
+                ax, ay, az, zhi - zlo, rho_a + _GUARD, False)
+    zm = 0.5 * (zlo + zhi)
+    return (tx + zm * ax, ty + zm * ay, tz + zm * az, dx / dl, dy / dl, dz / dl, dl,
+            rho_b + _GUARD, False)
+
+
+@njit(cache=True, inline="always")
+def _add_counts(counters, c0, c1, c2, c3, c4, c5):  # type: ignore[no-untyped-def]
+    counters[0] += c0
+    counters[1] += c1
+    counters[2] += c2
+    counters[3] += c3
+    counters[4] += c4
+    counters[5] += c5
+
+
+@njit(cache=True, nogil=True)
+def material_range(lo, hi, start, count):  # type: ignore[no-untyped-def]
+    """Per ray: lowest start and highest end of its material (inf, -inf when none)."""
+    n_rays = count.shape[0]
+    mat_lo = np.full(n_rays, np.inf)
+    mat_hi = np.full(n_rays, -np.inf)
+    for r in range(n_rays):
+        n = count[r]
+        if n > 0:
+            mat_lo[r] = lo[start[r]]
+            mat_hi[r] = hi[start[r] + n - 1]
+    return mat_lo, mat_hi
+
+
+@njit(cache=True, nogil=True)
+def sweep_grid(  # type: ignore[no-untyped-def]
+    lo, hi, lom, him, start, count, cap, used,
+    k, origin, shape, h,
+    tile_lo, tile_hi, tile,
+    tips, moves, axes, move_ids, prims, cuts, strides, first, stats, acc, touched, counters,
+    mat_lo, mat_hi,
+):
+    """Sweep moves ``first..`` through one dexel grid (arguments as in
+    ``kernels.sweep_moves``).
+
+    ``counters`` (6,) int64 accumulates, over all moves and primitives: rays in the
+    footprint spans, rays whose material range meets the capsule's interval, of those
+    (primitives other than a full ball) rays whose material range meets it cut to the
+    swept slab, exact intervals by a closed form, by the general ``swept_interval``,
+    and rays that lost material or overlap a body primitive.
+
+    ``mat_lo``, ``mat_hi`` (R,) float64: ``material_range`` of the grid, kept up to
+    date by the call (contiguous per row, so the material test vectorises).
+
+    ``acc`` (R,) float64 zeros and ``touched`` (R + 1,) int64 (``touched[0]``: count)
+    hold the per-ray cut of the move in progress, so a move resumed after a pool
+    overflow still reports its longest cut; both are left clean when the call ends.
+
+    Returns -1 when done, else the move at which the pool overflowed (grow, resume).
+    """
+    ia = (k + 1) % 3
+    ja = (k + 2) % 3
+    ni = shape[0]
+    nj = shape[1]
+    tipg = np.empty(3)  # grid frame: (ia, ja, k)
+    dg = np.empty(3)
+    ag = np.empty(3)
+    row_a = np.empty(max(shape[0], shape[1]) + 1)
+    row_b = np.empty(max(shape[0], shape[1]) + 1)
+    n_c0 = n_c1 = n_c2 = n_c3 = n_c4 = n_c5 = 0
+    for mv in range(first, tips.shape[0]):
+        for c, w in ((0, ia), (1, ja), (2, k)):
+            tipg[c] = tips[mv, w]
+            dg[c] = moves[mv, w]
+            ag[c] = axes[mv, w]
+        zu = ag[2]
+        zd = ag[0] * dg[0] + ag[1] * dg[1] + ag[2] * dg[2]
+        uu = 1.0 - zu * zu
+        ud = dg[2] - zu * zd
+        dd = dg[0] * dg[0] + dg[1] * dg[1] + dg[2] * dg[2] - zd * zd
+        for p in range(prims.shape[0]):
+            alpha, beta, gamma = prims[p, 0], prims[p, 1], prims[p, 2]
+            zlo, zhi, rmax = prims[p, 3], prims[p, 4], prims[p, 5]
+            cutting = cuts[p]
+            step = strides[p]
+            p0x, p0y, p0z, ux, uy, uz, length, rho, exact = _capsule(
+                tipg[0], tipg[1], tipg[2], dg[0], dg[1], dg[2], ag[0], ag[1], ag[2],
+                alpha, beta, gamma, zlo, zhi, rmax)
+            rho2 = rho * rho
+            p1x = p0x + length * ux
+            p1y = p0y + length * uy
+            kmin = min(p0z, p0z + length * uz) - rho
+            kmax = max(p0z, p0z + length * uz) + rho
+            xlo = min(p0x, p1x) - rho
+            xhi = max(p0x, p1x) + rho
+            i0 = max(0, int(math.ceil((xlo - origin[0]) / h - 0.5)))
+            i1 = min(ni - 1, int(math.floor((xhi - origin[0]) / h - 0.5)))
+            i0 += (-i0) % step
+            qa = uu + alpha * zu * zu
+            qb = -ud - alpha * zu * zd
+            qc = dd + alpha * zd * zd
+            parallel = alpha == 0.0 and uu < _PAR
+            for ii in range(i0, i1 + 1, step):
+                ci = origin[0] + (ii + 0.5) * h
+                ylo, yhi = stadium_row(ci, p0x, p0y, p1x, p1y, rho)
+                if not ylo <= yhi:
+                    continue
+                j0 = max(0, int(math.ceil((ylo - origin[1]) / h - 0.5)))
+                j1 = min(nj - 1, int(math.floor((yhi - origin[1]) / h - 0.5)))
+                j0 += (-j0) % step
+                ti = ii // tile
+                # trim the span to the tiles whose material can meet the sweep
+                while j0 <= j1 and (tile_lo[ti, j0 // tile] >= kmax
+                                    or tile_hi[ti, j0 // tile] <= kmin):
+                    j0 = (j0 // tile + 1) * tile
+                    j0 += (-j0) % step
+                while j1 >= j0 and (tile_lo[ti, j1 // tile] >= kmax
+                                    or tile_hi[ti, j1 // tile] <= kmin):
+                    j1 = (j1 // tile) * tile - 1
+                if j1 < j0:
+                    continue
+                mx = ci - p0x
+                w0 = ci - tipg[0]
+                nspan = (j1 - j0) // step + 1
+                cj0 = origin[1] + (j0 + 0.5) * h
+                capsule_row(row_a, row_b, nspan, mx, cj0 - p0y, step * h, -p0z,
+                            ux, uy, uz, length, rho2)
+                n_c0 += nspan
+                r0 = ii * nj + j0
+                for m in range(nspan):
+                    ta = row_a[m]
+                    tb = row_b[m]
+                    r = r0 + m * step
+                    mlo = mat_lo[r]
+                    mhi = mat_hi[r]
+                    if not (tb > ta and ta < mhi and tb > mlo):
+                        continue
+                    tj = (j0 + m * step) // tile
+                    if tile_lo[ti, tj] >= kmax or tile_hi[ti, tj] <= kmin:
+                        continue
+                    n_c1 += 1
+                    if not exact:
+                        cj = cj0 + m * step * h
+                        w1 = cj - tipg[1]
+                        w2 = -tipg[2]
+                        zw = ag[0] * w0 + ag[1] * w1 + ag[2] * w2
+                        # the swept slab along the ray
+                        if abs(zu) > 1e-14:
+                            za = (zlo - zw + min(0.0, zd)) / zu
+                            zb = (zhi - zw + max(0.0, zd)) / zu
+                            sa = max(ta, min(za, zb) - _GUARD)
+                            sb = min(tb, max(za, zb) + _GUARD)
+                            if not (sb > sa and sa < mhi and sb > mlo):
+                                continue
+                        elif zw - max(0.0, zd) > zhi or zw - min(0.0, zd) < zlo:
+                            continue
+                        n_c2 += 1
+                        wu = w2 - zw * zu
+                        wd = w0 * dg[0] + w1 * dg[1] + w2 * dg[2] - zw * zd
+                        ww = w0 * w0 + w1 * w1 + w2 * w2 - zw * zw
+                        qd = wu + alpha * zw * zu + 0.5 * beta * zu
+                        qe = -wd - alpha * zw * zd - 0.5 * beta * zd
+                        qf = ww + alpha * zw * zw + beta * zw + gamma
+                        done = False
+                        if parallel:
+                            ta, tb = parallel_cylinder_interval(qc, qe, qf, zw, zu, zd,
+                                                                zlo, zhi)
+                            done = True
+                        elif qa > 1e-9:
+                            done, ta, tb = endpoint_interval(qa, qb, qc, qd, qe, qf, zw,
+                                                             zu, zd, zlo, zhi)
+                        if done:
+                            n_c3 += 1
+                        else:
+                            n_c4 += 1
+                            ta, tb = swept_interval_scalar(qa, qb, qc, qd, qe, qf, zw, zu,
+                                                           zd, zlo, zhi)
+                        if not (tb > ta and ta < mhi and tb > mlo):
+                            continue
+                    base = start[r]
+                    n = count[r]
+                    if not cutting:
+                        got = 0.0
+                        for q in range(n):
+                            x0 = max(lo[base + q], ta)
+                            x1 = min(hi[base + q], tb)
+                            if x1 > x0:
+                                got += x1 - x0
+                        n_c5 += 1 if got > 0.0 else 0
+                        stats[mv, 2] += got
+                        stats[mv, 3] = max(stats[mv, 3], got)
+                        continue
+                    # the common subtractions written out here: a helper taking the
+                    # pool arrays costs two atomic reference-count updates per array
+                    # and call, more than the subtraction itself
+                    mid = move_ids[mv]
+                    i = 0
+                    while i < n and hi[base + i] <= ta:
+                        i += 1
+                    if i == n or lo[base + i] >= tb:
+                        continue
+                    j = i
+                    got = 0.0
+                    while j < n and lo[base + j] < tb:
+                        got += min(hi[base + j], tb) - max(lo[base + j], ta)
+                        j += 1
+                    left_lo = lo[base + i]
+                    left_lom = lom[base + i]
+                    right_hi = hi[base + j - 1]
+                    right_him = him[base + j - 1]
+                    keep_left = left_lo < ta - MIN_PIECE
+                    keep_right = right_hi > tb + MIN_PIECE
+                    delta = int(keep_left) + int(keep_right) - (j - i)
+                    if delta == 0 or (j == n and (delta < 0 or n < cap[r])):
+                        # nothing to shift: rewrite the met intervals in place
+                        w = base + i
+                        if keep_left:
+                            lo[w] = left_lo
+                            lom[w] = left_lom
+                            hi[w] = ta
+                            him[w] = mid
+                            w += 1
+                        if keep_right:
+                            lo[w] = tb
+                            lom[w] = mid
+                            hi[w] = right_hi
+                            him[w] = right_him
+                        count[r] = n + delta
+                    else:
+                        got = -1.0
+                    if got < 0.0:
+                        got = _subtract(lo, hi, lom, him, start, count, cap, used, r,
+                                        ta, tb, mid)
+                        if got < 0.0:
+                            _add_counts(counters, n_c0, n_c1, n_c2, n_c3, n_c4, n_c5)
+                            return mv
+                        base = start[r]
+                    n = count[r]
+                    mat_lo[r] = lo[base] if n > 0 else np.inf
+                    mat_hi[r] = hi[base + n - 1] if n > 0 else -np.inf
+                    if got > 0.0:
+                        n_c5 += 1
+                        stats[mv, 0] += got
+                        if acc[r] == 0.0:
+                            touched[0] += 1
+                            touched[touched[0]] = r
+                        acc[r] += got
+        longest = stats[mv, 1]
+        for m in range(1, touched[0] + 1):
+            r = touched[m]
+            longest = max(longest, acc[r])
+            acc[r] = 0.0
+        touched[0] = 0
+        stats[mv, 1] = longest
+    _add_counts(counters, n_c0, n_c1, n_c2, n_c3, n_c4, n_c5)
+    return -1
