@@ -182,7 +182,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                               "poses": len(toolpath), "link_poses": int(air.sum()),
                               "link_collisions": link_collisions[op],
                               "link_kinds": {k: sum(1 for x in links if x["kind"] == k)
-                                             for k in ("direct", "clearance", "retract")},
+                                             for k in ("direct", "clearance", "retract", "demoted")},
                               "links": links}
         if plots:
             for entry, path in zip(entries, result.paths, strict=True):

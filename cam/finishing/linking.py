@@ -164,9 +164,16 @@ class _Moves:
     kind: list[int] = field(default_factory=list)
     feed: list[float] = field(default_factory=list)
     link: list[bool] = field(default_factory=list)
+    delta: dict[int, Array] = field(default_factory=dict)
 
-    def add(self, tip: Array, axis: Array, kind: MoveKind, feed: float, link: bool) -> None:
-        for t, a in zip(np.reshape(tip, (-1, 3)), np.reshape(axis, (-1, 3)), strict=True):
+    def add(self, tip: Array, axis: Array, kind: MoveKind, feed: float, link: bool,
+            joints: Array | None = None) -> None:
+        """Append poses; ``joints`` ((k + 1, 5): start and each pose) of checked links."""
+        steps = None if joints is None else np.diff(joints, axis=0)
+        for i, (t, a) in enumerate(zip(np.reshape(tip, (-1, 3)), np.reshape(axis, (-1, 3)),
+                                       strict=True)):
+            if link and steps is not None:
+                self.delta[len(self.tip)] = steps[i]
             self.tip.append(t)
             self.axis.append(a)
             self.kind.append(int(kind))
@@ -271,9 +278,9 @@ class Linker:
         half = 0.5 * r.feed
 
         def add(tip: Array, axis: Array, kind: MoveKind, feed: float, link: bool,
-                is_air: bool) -> None:
+                is_air: bool, joints: Array | None = None) -> None:
             before = len(moves.tip)
-            moves.add(tip, axis, kind, feed, link)
+            moves.add(tip, axis, kind, feed, link, joints)
             air.extend([is_air] * (len(moves.tip) - before))
 
         exit_point: tuple[Array, Array, Array, float | None] | None = None
@@ -291,7 +298,7 @@ class Linker:
                     q = self._inverse(np.stack([outer_in, entry]), np.stack([p.axis[0]] * 2),
                                       p.joints_start)
                     checked = self._rapid_free(q)
-                    add(entry, p.axis[0], MoveKind.RAPID, math.nan, checked, True)
+                    add(entry, p.axis[0], MoveKind.RAPID, math.nan, checked, True, q)
             else:
                 kind = self._link(exit_point, (entry, p.axis[0], p.joints_start), p, add)
                 reports.append({"from": previous_name, "to": p.name, "kind": kind,
@@ -315,14 +322,35 @@ class Linker:
                     * exit_point[1]
                 q = self._inverse(np.stack([exit_point[0], outer]),
                                   np.stack([exit_point[1]] * 2), p.joints_end)
-                add(outer, exit_point[1], MoveKind.RAPID, math.nan, self._rapid_free(q), True)
+                add(outer, exit_point[1], MoveKind.RAPID, math.nan, self._rapid_free(q), True,
+                    q)
         tip = np.array(moves.tip)
         axis = _unit(np.array(moves.axis))
+        link = self._confirm(tip, axis, np.array(moves.link, bool), moves.delta, reports)
         toolpath = Toolpath(
             tip=tip, axis=axis, feed=np.array(moves.feed), kind=np.array(moves.kind, np.int8),
             name=name, tool_number=tool_number, cutter=cutter, spindle_rpm=spindle_rpm,
-            link=np.array(moves.link, bool))
+            link=link)
         return toolpath, np.array(air, bool), reports
+
+    def _confirm(self, tip: Array, axis: Array, link: NDArray[np.bool_],
+                 delta: dict[int, Array], reports: list[dict[str, Any]]
+                 ) -> NDArray[np.bool_]:
+        """Each checked link again where the post's joints (the whole operation's inverse
+        kinematics by continuity) move otherwise than the pair it was checked with; a
+        link no longer clear is left to the post's retract and reported."""
+        joints = self.kins.inverse(tip, axis)
+        link = link.copy()
+        for row in np.flatnonzero(link).tolist():
+            step = joints[row] - joints[row - 1]
+            if np.allclose(step, delta[row], rtol=0.0, atol=1e-9):
+                continue
+            if not self._rapid_free(joints[row - 1:row + 1]):
+                link[row] = False
+                reports.append({"kind": "demoted", "row": row,
+                                "note": "the post's joints differ from the checked pair and "
+                                        "collide: left to the post's safe retract"})
+        return link
 
     def _link(self, exit_point: tuple[Array, Array, Array, float | None],
               entry: tuple[Array, Array, Array], p: PassEnds, add: Any) -> str:
@@ -332,7 +360,7 @@ class Linker:
         b_tip, b_axis, _ = entry
         q = self._inverse(np.stack([a_tip, b_tip]), np.stack([a_axis, b_axis]), a_joints)
         if self._rapid_free(q):
-            add(b_tip, b_axis, MoveKind.RAPID, math.nan, True, True)
+            add(b_tip, b_axis, MoveKind.RAPID, math.nan, True, True, q)
             return "direct"
         lengths = retract_length(np.stack([a_tip, b_tip]), np.stack([a_axis, b_axis]),
                                  r.envelope, r.longest)
@@ -343,20 +371,20 @@ class Linker:
         q = self._inverse(tips, axes, a_joints)
         free = [self._rapid_free(q[i:i + 2]) for i in range(3)]
         if all(free):
-            add(tips[1:], axes[1:], MoveKind.RAPID, math.nan, True, True)
+            add(tips[1:], axes[1:], MoveKind.RAPID, math.nan, True, True, q)
             return "clearance"
         # no checked link: out (checked rapid, else at half feed), the earlier
         # stepped turn as plain rapids (the post retracts around them), in again
         half = 0.5 * r.feed
         if lengths[0] > 0:
             add(a_out, a_axis, MoveKind.RAPID if free[0] else MoveKind.RETRACT,
-                math.nan if free[0] else half, free[0], True)
+                math.nan if free[0] else half, free[0], True, q[0:2])
         link_tip, link_axis = _stepped_link(a_out, a_axis, b_out, b_axis, r.turn_step)
         add(np.vstack([link_tip, b_out[None]]), np.vstack([link_axis, b_axis[None]]),
             MoveKind.RAPID, math.nan, False, True)
         if lengths[1] > 0:
             add(b_tip, b_axis, MoveKind.RAPID if free[2] else MoveKind.PLUNGE,
-                math.nan if free[2] else half, free[2], True)
+                math.nan if free[2] else half, free[2], True, q[2:4])
         return "retract"
 
 
