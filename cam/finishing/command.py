@@ -181,8 +181,9 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
             operations[op] = {"apt": name, "paths": sum(e["operation"] == op for e in entries),
                               "poses": len(toolpath), "link_poses": int(air.sum()),
                               "link_collisions": link_collisions[op],
-                              "link_kinds": {k: sum(1 for x in links if x["kind"] == k)
-                                             for k in ("direct", "clearance", "retract", "demoted")},
+                              "link_kinds": {
+                                  k: sum(1 for x in links if x["kind"] == k)
+                                  for k in ("direct", "clearance", "retract", "demoted")},
                               "links": links}
         if plots:
             for entry, path in zip(entries, result.paths, strict=True):

@@ -54,7 +54,11 @@ __all__ = ["DEPARTURE_SCALES", "Envelope", "LinkRules", "Linker", "PassEnds", "r
 Array = NDArray[np.float64]
 _RETRACT_SAMPLES = 2048
 #: Departure and approach lengths tried, in units of ``LinkRules.departure``.
-DEPARTURE_SCALES = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0)
+DEPARTURE_SCALES = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0)
+#: Link kinds from the lowest; a link the post moves into the part goes one up.
+_LEVELS = ("direct", "clearance", "retract")
+#: Rounds of that check.
+_ROUNDS = 4
 
 
 class Envelope:
@@ -260,6 +264,14 @@ class Linker:
              ) -> tuple[Toolpath, NDArray[np.bool_], list[dict[str, Any]]]:
         """One operation: each pass with its departure and approach, linked.
 
+        The links are chosen with joints from the inverse kinematics of their two
+        ends; the post picks branches over the whole operation at once (least total
+        travel), which can move a link otherwise. So the operation is built, its
+        joints computed as the post will, every checked link whose joints moved is
+        checked again, and a link that is no longer clear is rebuilt one kind up
+        (direct -> clearance -> retract), up to ``_ROUNDS`` times; one still not clear
+        after that is left to the post's retract and reported ``"demoted"``.
+
         Returns
         -------
         toolpath : Toolpath
@@ -271,10 +283,40 @@ class Linker:
             ``"retract"``: no checked link found, the post retracts to safe Z),
             ``departure_mm``, ``approach_mm`` (None: along the axis to the cylinder).
         """
+        starts = [self.escape(p.tip[0], p.axis[0], p.escape_start) for p in passes]
+        ends = [self.escape(p.tip[-1], p.axis[-1], p.escape_end) for p in passes]
+        floor: dict[int, int] = {}
+        for _ in range(_ROUNDS):
+            moves, air, reports, owner = self._build(passes, starts, ends, floor)
+            tip = np.array(moves.tip)
+            axis = _unit(np.array(moves.axis))
+            link = np.array(moves.link, bool)
+            bad = self._moved(tip, axis, link, moves.delta)
+            raise_links = {owner[row] for row in bad if owner[row] >= 0}
+            if not raise_links:
+                break
+            for k in raise_links:
+                floor[k] = _LEVELS.index(reports[k]["kind"]) + 1
+        for row in bad:
+            link[row] = False
+            reports.append({"kind": "demoted", "row": int(row),
+                            "note": "the post's joints move this checked rapid otherwise "
+                                    "and it is not clear: left to the post's safe retract"})
+        toolpath = Toolpath(
+            tip=tip, axis=axis, feed=np.array(moves.feed), kind=np.array(moves.kind, np.int8),
+            name=name, tool_number=tool_number, cutter=cutter, spindle_rpm=spindle_rpm,
+            link=link)
+        return toolpath, np.array(air, bool), reports
+
+    def _build(self, passes: Sequence[PassEnds], starts: list[tuple[Array, float] | None],
+               ends: list[tuple[Array, float] | None], floor: dict[int, int]
+               ) -> tuple[_Moves, list[bool], list[dict[str, Any]], dict[int, int]]:
+        """The operation's poses; ``floor[k]``: lowest kind index for link k."""
         r = self.rules
         moves = _Moves()
         air: list[bool] = []
         reports: list[dict[str, Any]] = []
+        owner: dict[int, int] = {}  # checked-link row -> link index (-1: in or out)
         half = 0.5 * r.feed
 
         def add(tip: Array, axis: Array, kind: MoveKind, feed: float, link: bool,
@@ -282,11 +324,13 @@ class Linker:
             before = len(moves.tip)
             moves.add(tip, axis, kind, feed, link, joints)
             air.extend([is_air] * (len(moves.tip) - before))
+            for row in range(before, len(moves.tip)):
+                owner[row] = len(reports) if link else -1
 
         exit_point: tuple[Array, Array, Array, float | None] | None = None
         previous_name = ""
         for index, p in enumerate(passes):
-            start = self.escape(p.tip[0], p.axis[0], p.escape_start)
+            start = starts[index]
             outer_in = p.tip[0] + retract_length(p.tip[:1], p.axis[:1], r.envelope,
                                                  r.longest)[0] * p.axis[0]
             entry = start[0] if start is not None else outer_in
@@ -297,16 +341,19 @@ class Linker:
                 if start is not None:
                     q = self._inverse(np.stack([outer_in, entry]), np.stack([p.axis[0]] * 2),
                                       p.joints_start)
-                    checked = self._rapid_free(q)
-                    add(entry, p.axis[0], MoveKind.RAPID, math.nan, checked, True, q)
+                    before = len(moves.tip)
+                    add(entry, p.axis[0], MoveKind.RAPID, math.nan, self._rapid_free(q), True,
+                        q)
+                    owner[before] = -1
             else:
-                kind = self._link(exit_point, (entry, p.axis[0], p.joints_start), p, add)
+                kind = self._link(exit_point, (entry, p.axis[0], p.joints_start), add,
+                                  floor.get(len(reports), 0))
                 reports.append({"from": previous_name, "to": p.name, "kind": kind,
                                 "departure_mm": exit_point[3], "approach_mm": approach_mm})
             add(p.tip[0], p.axis[0], MoveKind.PLUNGE, r.feed if start is not None else half,
                 False, True)
             add(p.tip[1:], p.axis[1:], MoveKind.FEED, r.feed, False, False)
-            end = self.escape(p.tip[-1], p.axis[-1], p.escape_end)
+            end = ends[index]
             if end is not None:
                 exit_point = (end[0], p.axis[-1], p.joints_end, end[1])
                 add(end[0], p.axis[-1], MoveKind.RETRACT, r.feed, False, True)
@@ -322,44 +369,35 @@ class Linker:
                     * exit_point[1]
                 q = self._inverse(np.stack([exit_point[0], outer]),
                                   np.stack([exit_point[1]] * 2), p.joints_end)
+                before = len(moves.tip)
                 add(outer, exit_point[1], MoveKind.RAPID, math.nan, self._rapid_free(q), True,
                     q)
-        tip = np.array(moves.tip)
-        axis = _unit(np.array(moves.axis))
-        link = self._confirm(tip, axis, np.array(moves.link, bool), moves.delta, reports)
-        toolpath = Toolpath(
-            tip=tip, axis=axis, feed=np.array(moves.feed), kind=np.array(moves.kind, np.int8),
-            name=name, tool_number=tool_number, cutter=cutter, spindle_rpm=spindle_rpm,
-            link=link)
-        return toolpath, np.array(air, bool), reports
+                owner[before] = -1
+        return moves, air, reports, owner
 
-    def _confirm(self, tip: Array, axis: Array, link: NDArray[np.bool_],
-                 delta: dict[int, Array], reports: list[dict[str, Any]]
-                 ) -> NDArray[np.bool_]:
-        """Each checked link again where the post's joints (the whole operation's inverse
-        kinematics by continuity) move otherwise than the pair it was checked with; a
-        link no longer clear is left to the post's retract and reported."""
+    def _moved(self, tip: Array, axis: Array, link: NDArray[np.bool_],
+               delta: dict[int, Array]) -> list[int]:
+        """Checked-link rows the post's joints (the whole operation's inverse kinematics)
+        move otherwise than the pair they were checked with, and that are not clear."""
         joints = self.kins.inverse(tip, axis)
-        link = link.copy()
+        bad = []
         for row in np.flatnonzero(link).tolist():
             step = joints[row] - joints[row - 1]
             if np.allclose(step, delta[row], rtol=0.0, atol=1e-9):
                 continue
             if not self._rapid_free(joints[row - 1:row + 1]):
-                link[row] = False
-                reports.append({"kind": "demoted", "row": row,
-                                "note": "the post's joints differ from the checked pair and "
-                                        "collide: left to the post's safe retract"})
-        return link
+                bad.append(int(row))
+        return bad
 
     def _link(self, exit_point: tuple[Array, Array, Array, float | None],
-              entry: tuple[Array, Array, Array], p: PassEnds, add: Any) -> str:
-        """Append the link from ``exit_point`` to ``entry``; returns its kind."""
+              entry: tuple[Array, Array, Array], add: Any, level: int = 0) -> str:
+        """Append the link from ``exit_point`` to ``entry``, of kind ``_LEVELS[level]``
+        or higher; returns its kind."""
         r = self.rules
         a_tip, a_axis, a_joints, _ = exit_point
         b_tip, b_axis, _ = entry
         q = self._inverse(np.stack([a_tip, b_tip]), np.stack([a_axis, b_axis]), a_joints)
-        if self._rapid_free(q):
+        if level <= 0 and self._rapid_free(q):
             add(b_tip, b_axis, MoveKind.RAPID, math.nan, True, True, q)
             return "direct"
         lengths = retract_length(np.stack([a_tip, b_tip]), np.stack([a_axis, b_axis]),
@@ -370,7 +408,7 @@ class Linker:
         axes = np.stack([a_axis, a_axis, b_axis, b_axis])
         q = self._inverse(tips, axes, a_joints)
         free = [self._rapid_free(q[i:i + 2]) for i in range(3)]
-        if all(free):
+        if level <= 1 and all(free):
             add(tips[1:], axes[1:], MoveKind.RAPID, math.nan, True, True, q)
             return "clearance"
         # no checked link: out (checked rapid, else at half feed), the earlier

@@ -108,8 +108,8 @@ class FinishOptions:
         found no checked way (the post retracts around each step), deg.
     departure_mm : float
         Shortest departure from and approach to a pass at the cutting feed, mm
-        (longer, up to 8 times, where the grown cutter is not yet clear; docs/finishing.md
-        "Links").
+        (longer, up to 16 times, where the grown cutter is not yet clear;
+        docs/finishing.md "Links").
     zigzag : bool
         Run every second pass of each passage backwards (cam/finishing/order.py).
     passages : int or None
@@ -146,7 +146,7 @@ class FinishOptions:
     motion_step_deg: float = 0.5
     retract_clearance_mm: float = 5.0
     link_step_deg: float = 5.0
-    departure_mm: float = 2.0
+    departure_mm: float = 1.0
     zigzag: bool = True
     passages: int | None = None
     blade_passes: bool = True
