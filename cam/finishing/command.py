@@ -67,7 +67,8 @@ def finish_toolpaths(result: FinishResult, surfaces: ImpellerSurfaces,
         cutter_allowance=options.cutter_allowance_mm, step_mm=options.motion_step_mm,
         step_rad=math.radians(options.motion_step_deg),
         envelope=_envelope(surfaces, options.retract_clearance_mm),
-        longest=tool.length + 500.0, turn_step=math.radians(options.link_step_deg))
+        longest=tool.length + 500.0, turn_step=math.radians(options.link_step_deg),
+        feed_link=options.feed_link_mm)
     linker = Linker(scene, kins, rules)
     return {op: linker.join(f"finish_{op}", ordered_passes(members, options.zigzag),
                             tool_number=tool.number,
@@ -183,7 +184,8 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                               "link_collisions": link_collisions[op],
                               "link_kinds": {
                                   k: sum(1 for x in links if x["kind"] == k)
-                                  for k in ("direct", "clearance", "retract", "demoted")},
+                                  for k in ("feed", "direct", "clearance", "retract",
+                                            "demoted")},
                               "links": links}
         if plots:
             for entry, path in zip(entries, result.paths, strict=True):

@@ -59,6 +59,8 @@ DEPARTURE_SCALES = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0)
 _LEVELS = ("direct", "clearance", "retract")
 #: Rounds of that check.
 _ROUNDS = 4
+#: Largest A or C turn of a stepover at feed between two passes, rad.
+_FEED_LINK_TURN = math.radians(10.0)
 
 
 class Envelope:
@@ -120,6 +122,9 @@ class LinkRules:
         Longest retract along a tool axis, mm.
     turn_step : float
         Largest rotation about +Z between points of a fallback link, rad.
+    feed_link : float
+        Passes whose ends are at most this far apart are joined by one move at feed
+        (a zig-zag stepover, checked as a cut), mm; 0: never.
     """
 
     tool: Tool
@@ -132,6 +137,7 @@ class LinkRules:
     envelope: Envelope
     longest: float
     turn_step: float
+    feed_link: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -257,6 +263,24 @@ class Linker:
                 return point, float(lengths[index // len(directions)])
         return None
 
+    def feed_link(self, a: PassEnds, b: PassEnds) -> bool:
+        """Can pass ``a`` go on into pass ``b`` by one feed move (a zig-zag stepover)?
+
+        When their ends are at most ``feed_link`` mm apart, the rotary joints turn less
+        than ``_FEED_LINK_TURN`` and the move (tip straight, axis on the great circle,
+        as the post linearises it) is free as a cut: the cutter shrunk by the cutting
+        allowance, shank and holder ``clearance`` away.
+        """
+        r = self.rules
+        tips = np.stack([a.tip[-1], b.tip[0]])
+        axes = np.stack([a.axis[-1], b.axis[0]])
+        if not 0.0 < float(np.linalg.norm(tips[1] - tips[0])) <= r.feed_link:
+            return False
+        q = self._inverse(tips, axes, a.joints_end)
+        if float(np.abs(q[1, 3:] - q[0, 3:]).max()) > _FEED_LINK_TURN:
+            return False
+        return self._feed_free(tips, axes)
+
     # -- the operation ---------------------------------------------------------------
 
     def join(self, name: str, passes: Sequence[PassEnds], *, tool_number: int,
@@ -285,9 +309,10 @@ class Linker:
         """
         starts = [self.escape(p.tip[0], p.axis[0], p.escape_start) for p in passes]
         ends = [self.escape(p.tip[-1], p.axis[-1], p.escape_end) for p in passes]
+        stepover = [self.feed_link(a, b) for a, b in zip(passes[:-1], passes[1:], strict=True)]
         floor: dict[int, int] = {}
         for _ in range(_ROUNDS):
-            moves, air, reports, owner = self._build(passes, starts, ends, floor)
+            moves, air, reports, owner = self._build(passes, starts, ends, stepover, floor)
             tip = np.array(moves.tip)
             axis = _unit(np.array(moves.axis))
             link = np.array(moves.link, bool)
@@ -309,9 +334,11 @@ class Linker:
         return toolpath, np.array(air, bool), reports
 
     def _build(self, passes: Sequence[PassEnds], starts: list[tuple[Array, float] | None],
-               ends: list[tuple[Array, float] | None], floor: dict[int, int]
+               ends: list[tuple[Array, float] | None], stepover: list[bool],
+               floor: dict[int, int]
                ) -> tuple[_Moves, list[bool], list[dict[str, Any]], dict[int, int]]:
-        """The operation's poses; ``floor[k]``: lowest kind index for link k."""
+        """The operation's poses; ``stepover[k]``: pass k goes on into pass k + 1 at
+        feed; ``floor[k]``: lowest kind index for link k."""
         r = self.rules
         moves = _Moves()
         air: list[bool] = []
@@ -335,7 +362,12 @@ class Linker:
                                                  r.longest)[0] * p.axis[0]
             entry = start[0] if start is not None else outer_in
             approach_mm = None if start is None else start[1]
-            if exit_point is None:
+            if index and stepover[index - 1]:
+                # the stepover at feed into this pass, no departure, link or approach
+                reports.append({"from": previous_name, "to": p.name, "kind": "feed",
+                                "departure_mm": None, "approach_mm": round(float(
+                                    np.linalg.norm(p.tip[0] - passes[index - 1].tip[-1])), 4)})
+            elif exit_point is None:
                 # first pass: the post positions above the cylinder point, then in
                 add(outer_in, p.axis[0], MoveKind.RAPID, math.nan, False, True)
                 if start is not None:
@@ -350,10 +382,15 @@ class Linker:
                                   floor.get(len(reports), 0))
                 reports.append({"from": previous_name, "to": p.name, "kind": kind,
                                 "departure_mm": exit_point[3], "approach_mm": approach_mm})
-            add(p.tip[0], p.axis[0], MoveKind.PLUNGE, r.feed if start is not None else half,
-                False, True)
+            stepped = bool(index and stepover[index - 1])
+            add(p.tip[0], p.axis[0], MoveKind.PLUNGE,
+                r.feed if start is not None or stepped else half, False, True)
             add(p.tip[1:], p.axis[1:], MoveKind.FEED, r.feed, False, False)
             end = ends[index]
+            previous_name = p.name
+            if index < len(passes) - 1 and stepover[index]:
+                exit_point = (p.tip[-1], p.axis[-1], p.joints_end, 0.0)
+                continue
             if end is not None:
                 exit_point = (end[0], p.axis[-1], p.joints_end, end[1])
                 add(end[0], p.axis[-1], MoveKind.RETRACT, r.feed, False, True)
@@ -362,7 +399,6 @@ class Linker:
                                                  r.longest)[0] * p.axis[-1]
                 exit_point = (out, p.axis[-1], p.joints_end, None)
                 add(out, p.axis[-1], MoveKind.RETRACT, half, False, True)
-            previous_name = p.name
             if index == len(passes) - 1 and exit_point[3] is not None:
                 outer = exit_point[0] + retract_length(
                     exit_point[0][None], exit_point[1][None], r.envelope, r.longest)[0] \

@@ -112,6 +112,10 @@ class FinishOptions:
         docs/finishing.md "Links").
     zigzag : bool
         Run every second pass of each passage backwards (cam/finishing/order.py).
+    feed_link_mm : float
+        Consecutive passes whose ends are at most this far apart are joined by one
+        move at the cutting feed (the zig-zag stepover; checked as a cut, else linked
+        as usual), mm; 0: never.
     passages : int or None
         Number of passages to machine (default all; the others are rotations).
     blade_passes, hub_passes : bool
@@ -148,6 +152,7 @@ class FinishOptions:
     link_step_deg: float = 5.0
     departure_mm: float = 1.0
     zigzag: bool = True
+    feed_link_mm: float = 5.0
     passages: int | None = None
     blade_passes: bool = True
     hub_passes: bool = True
@@ -165,7 +170,8 @@ class FinishOptions:
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise InputError("must be a positive number", field=name, value=value,
                                  accepted="a finite number > 0")
-        for name in ("c_tilt_deg", "cutter_allowance_mm", "clearance_mm", "repair_margin_mm"):
+        for name in ("c_tilt_deg", "cutter_allowance_mm", "clearance_mm", "repair_margin_mm",
+                     "feed_link_mm"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
                 raise InputError("must be a number >= 0", field=name, value=value,

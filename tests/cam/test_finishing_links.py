@@ -10,6 +10,7 @@ retract fallback, which finish.json-style reports name.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -127,3 +128,37 @@ def test_no_clear_link_falls_back_to_the_retract_and_says_so() -> None:
     assert len(turning) >= 36
     assert not toolpath.link[turning].any()
     assert (toolpath.kind[turning] == MoveKind.RAPID).all()
+
+
+def test_adjacent_zigzag_passes_step_over_at_feed() -> None:
+    """Two passes 1.5 mm apart over a plate, the second reversed: one feed move joins
+    them (no departure, rapid or approach); with a rib between them it cannot."""
+    plate = trimesh.creation.box(extents=(60.0, 60.0, 10.0))
+    plate.apply_translation([40.0, 0.0, 25.0])  # top face at z = 30
+    axis = np.array([0.0, 0.0, 1.0])
+    passes = []
+    for k, x in enumerate((38.0, 39.5)):
+        tip = np.array([[x, y, 30.0] for y in np.linspace(-8.0, 8.0, 9)])
+        if k:
+            tip = tip[::-1]
+        a = np.tile(axis, (len(tip), 1))
+        q = KINS.inverse(tip, a)
+        passes.append(PassEnds(f"pass {k}", tip, a, axis, axis, q[0], q[-1]))
+    rules = replace(_linker(CollisionScene({"hub": plate})).rules, feed_link=5.0)
+    linker = Linker(CollisionScene({"hub": plate}), KINS, rules)
+    toolpath, air, links = linker.join("plate", passes, tool_number=1,
+                                       cutter=Cutter(4.0, 2.0, 15.0), spindle_rpm=None)
+    assert [link["kind"] for link in links] == ["feed"]
+    assert links[0]["approach_mm"] == pytest.approx(1.5)
+    cut = np.flatnonzero(toolpath.kind == MoveKind.FEED)
+    step = cut[7] + 1  # the first pass has 8 feed moves after its first point
+    assert toolpath.kind[step] == MoveKind.PLUNGE and air[step]
+    np.testing.assert_allclose(toolpath.tip[step], passes[1].tip[0])
+    np.testing.assert_allclose(toolpath.tip[step - 1], passes[0].tip[-1])
+    # a rib standing between the two ends: linked the usual way
+    rib = trimesh.creation.box(extents=(0.6, 4.0, 6.0))
+    rib.apply_translation([38.75, 8.0, 33.0])
+    blocked = Linker(CollisionScene({"hub": plate, "blade": rib}), KINS, rules)
+    _, _, links = blocked.join("plate", passes, tool_number=1,
+                               cutter=Cutter(4.0, 2.0, 15.0), spindle_rpm=None)
+    assert links[0]["kind"] != "feed"
