@@ -7,7 +7,8 @@ GOTO arrays with ``numpy.searchsorted``. So the Python loop runs over the non-GO
 records only.
 
 Semantics (see docs/formats.md): FEDRAT is modal; RAPID applies to the next GOTO
-only; a three-number GOTO keeps the last tool axis (+Z before any); each LOADTL or
+only, and so does ``$$ LINK`` (a rapid the planner checked as a joint move); a
+three-number GOTO keeps the last tool axis (+Z before any); each LOADTL or
 ``$$ OPERATION/name`` (CATIA ``$$ OPERATION NAME : name``, NX ``TOOL PATH/name``)
 starts an operation once the current one has motion; fixed-orientation segments come
 from ``$$ SEGMENT/3+2,n`` ... ``$$ SEGMENT/5AXIS`` or ``MULTAX/OFF`` + ``TLAXIS/i,j,k``.
@@ -109,6 +110,7 @@ class _Interpreter:
         self.axis_at: list[int] = []
         self.axis_values: list[tuple[float, float, float]] = []
         self.rapid_at: list[int] = []
+        self.link_at: list[int] = []
         self.op_start: list[int] = [0]
         self.op_name: list[str | None] = [None]
         self.op_segments: set[int] = set()
@@ -193,6 +195,8 @@ class _Interpreter:
             self.start_operation(g, text.split(":", 1)[1].strip() or None)
         elif upper.startswith("SEGMENT/"):
             self.segment_marker(record, upper[len("SEGMENT/") :].replace(" ", ""), g)
+        elif upper == "LINK":
+            self.link_at.append(g)
         elif upper.startswith("MOVE/"):
             word = upper[len("MOVE/") :].strip()
             if word not in ("FEED", "PLUNGE", "RETRACT"):
@@ -406,6 +410,9 @@ def _assemble(
     rapid = np.zeros(n, bool)
     rapid[[r for r in interp.rapid_at if r < n]] = True
     kind[rapid] = MoveKind.RAPID
+    link = np.zeros(n, bool)
+    link[[r for r in interp.link_at if r < n]] = True
+    link &= rapid  # a $$ LINK marks the next GOTO's rapid; without RAPID it means nothing
     feed = interp.feed.spread(g, np.float64)
     feed[rapid] = np.nan
     missing = np.flatnonzero(~rapid & np.isnan(feed))
@@ -432,7 +439,7 @@ def _assemble(
             cutter=_object_at(interp.cutter, a),
             spindle_rpm=_object_at(interp.spindle, a),
             coolant=bool(interp.coolant.spread(at, bool)[0]),
-            source_records=lines[a:b].astype(np.int32),
+            source_records=lines[a:b].astype(np.int32), link=link[a:b],
         ))  # fmt: skip
     return out
 

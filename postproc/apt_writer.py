@@ -4,6 +4,7 @@ Runs of GOTO records with no record between them are formatted with one
 ``%``-operation per run (one format string repeated over the run's numbers), so a
 million poses are written in about a second. The writer mirrors the reader's modal
 rules: it emits FEDRAT/ only when the feed changes, RAPID before each rapid GOTO,
+``$$ LINK`` before the RAPID of a checked link (``Toolpath.link``),
 ``$$ MOVE/...`` when the non-rapid move kind changes, ``$$ SEGMENT/...`` when the
 fixed-orientation segment changes, and SPINDL/, COOLNT/ and CUTTER/ per operation.
 """
@@ -128,6 +129,8 @@ def _operation(toolpath: Toolpath, state: _FileState, decimals: int, axis_decima
     for row in feed_change.tolist():
         prefixes.setdefault(row, []).append(f"FEDRAT/MMPM,{_number(float(feed[row]), decimals)}\n")
     for row in np.flatnonzero(rapid).tolist():
+        if toolpath.link[row]:
+            prefixes.setdefault(row, []).append("$$ LINK\n")
         prefixes.setdefault(row, []).append("RAPID\n")
     if n:
         state.segment = int(segment[-1])

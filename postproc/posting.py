@@ -6,7 +6,8 @@
    checked with the APT record named in the error),
 2. rotary linearisation of simultaneous feed moves (``postproc.linearise``),
 3. safe retract and re-orientation before the first operation, at tool changes and
-   before every rapid move that turns a rotary axis,
+   before every rapid move that turns a rotary axis, except checked links
+   (``Toolpath.link``: one joint-mode rapid, as their planner checked it),
 4. feeds: G93 inverse time for simultaneous moves, G94 mm/min for linear ones,
    G0 for rapids (``postproc.feeds``),
 5. a final travel check of every block, including inserted and safety blocks.
@@ -320,11 +321,13 @@ def post_toolpaths(
                         singular_tilt=DEFAULT_TOLERANCES.singular_tilt, records=recs)
         seg = lin.segment
         motion = np.where(kinds[seg] == MoveKind.RAPID, Motion.RAPID, Motion.LINEAR)
+        # checked links: joint-mode rapids, as their planner checked them
+        link = np.concatenate([[False], tp.link])[seg] & ~lin.inserted
         words = lin.joints.copy()
-        tcp = np.full(len(seg), options.tcp)
+        tcp = np.full(len(seg), options.tcp) & ~link
         if options.tcp:
             cl_tip = lin.tip
-            words[:, :3] = world(cl_tip) if world is not None else cl_tip
+            words[tcp, :3] = (world(cl_tip) if world is not None else cl_tip)[tcp]
         path = _Chunk(
             joints=lin.joints, words=words, present=np.ones((len(seg), 5), bool),
             motion=motion.astype(np.int8), feed=feeds[seg], length=lin.tip_length,
@@ -332,8 +335,9 @@ def post_toolpaths(
             tcp=tcp, tool_length=np.full(len(seg), length),
         )
         # safe retract before rapids that turn a rotary axis inside the operation
+        # (not before checked links: their planner checked the joint move itself)
         if options.safe_retract:
-            path = _guard_rapids(path, z_safe(length), length)
+            path = _guard_rapids(path, z_safe(length), length, link)
         op_chunks.append(path)
         op = _concat(op_chunks)
         chunks.append(op)
@@ -386,12 +390,18 @@ def post_toolpaths(
     )
 
 
-def _guard_rapids(path: _Chunk, z: float, length: float) -> _Chunk:
-    """Insert retract / orient / position before each rapid that turns a rotary axis."""
+def _guard_rapids(path: _Chunk, z: float, length: float,
+                  link: NDArray[np.bool_] | None = None) -> _Chunk:
+    """Insert retract / orient / position before each rapid that turns a rotary axis.
+
+    Rows flagged in ``link`` (checked links, ``Toolpath.link``) are left as they are.
+    """
     n = len(path.record)
     if n < 2:
         return path
     turn = np.abs(np.diff(path.joints[:, 3:], axis=0)).max(axis=1) > ROTARY_STILL
+    if link is not None:
+        turn &= ~link[1:]
     guarded = np.flatnonzero((path.motion[1:] == Motion.RAPID) & turn) + 1
     if len(guarded) == 0:
         return path

@@ -73,6 +73,13 @@ class Toolpath:
     source_records : (n,) int32
         For poses read from a file, the 1-based line number of their GOTO record;
         -1 for poses made in memory.
+    link : (n,) bool
+        Rapid moves that are *checked links*: the planner collision-checked the move
+        into this pose as the machine executes a rapid in joint mode (every joint
+        linear between the two poses' joints, the post's inverse kinematics), so the
+        post writes it as one joint-mode ``G0`` with no safe retract around it
+        (``$$ LINK`` before ``RAPID`` in APT). Plain rapids (False) keep the post's
+        retract to safe Z when they turn a rotary axis.
     """
 
     tip: NDArray[np.float64]
@@ -86,6 +93,7 @@ class Toolpath:
     spindle_rpm: float | None = None
     coolant: bool = False
     source_records: NDArray[np.int32] = field(default_factory=lambda: np.zeros(0, np.int32))
+    link: NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, bool))
 
     def __post_init__(self) -> None:
         self.tip = np.ascontiguousarray(self.tip, dtype=np.float64).reshape(-1, 3)
@@ -99,15 +107,22 @@ class Toolpath:
         if len(self.source_records) == 0:
             self.source_records = np.full(n, -1, np.int32)
         self.source_records = np.ascontiguousarray(self.source_records, dtype=np.int32)
+        if len(self.link) == 0:
+            self.link = np.zeros(n, bool)
+        self.link = np.ascontiguousarray(self.link, dtype=bool).reshape(-1)
         for label, arr in (
             ("axis", self.axis),
             ("feed", self.feed),
             ("kind", self.kind),
             ("segment", self.segment),
             ("source_records", self.source_records),
+            ("link", self.link),
         ):
             if len(arr) != n:
                 raise ValueError(f"Toolpath.{label} has {len(arr)} rows, tip has {n}")
+        if np.any(self.link & (self.kind != MoveKind.RAPID)):
+            row = int(np.flatnonzero(self.link & (self.kind != MoveKind.RAPID))[0])
+            raise ValueError(f"Toolpath.link row {row}: only a rapid move can be a checked link")
         norms = np.linalg.norm(self.axis, axis=1)
         if n and not np.all(np.abs(norms - 1.0) < 1e-6):
             bad = int(np.argmax(np.abs(norms - 1.0)))

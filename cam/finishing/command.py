@@ -25,8 +25,9 @@ import numpy as np
 import trimesh
 
 from cam.collision import CollisionScene
-from cam.finishing.linking import Envelope, join_passes
+from cam.finishing.linking import Envelope, Linker, LinkRules
 from cam.finishing.options import FinishOptions
+from cam.finishing.order import ordered_passes
 from cam.finishing.plan import FinishResult, plan_finishing
 from cam.finishing.plots import plot_angular_displacement
 from cam.finishing.scene import solid_meshes, surface_meshes
@@ -37,6 +38,7 @@ from impeller_cam.atomic import staged_directory, write_text_atomic
 from impeller_cam.errors import InputError
 from impeller_cam.progress import progress_bar
 from postproc.apt import write_apt
+from postproc.kinematics import Kinematics
 from postproc.toolpath import Cutter, Toolpath
 
 __all__ = ["SCENE_SOURCES", "finish_toolpaths", "run_finish"]
@@ -54,27 +56,32 @@ def _envelope(surfaces: ImpellerSurfaces, clearance: float) -> Envelope:
                     float(contours[:, 0].max()) + clearance)
 
 
-def finish_toolpaths(result: FinishResult, surfaces: ImpellerSurfaces
-                     ) -> dict[str, tuple[Toolpath, np.ndarray]]:
-    """One linked ``Toolpath`` per operation and the mask of its link poses."""
+def finish_toolpaths(result: FinishResult, surfaces: ImpellerSurfaces,
+                     scene: CollisionScene, kins: Kinematics
+                     ) -> dict[str, tuple[Toolpath, np.ndarray, list[dict[str, Any]]]]:
+    """One linked ``Toolpath`` per operation, the mask of its air poses, its links."""
     tool, options = result.tool, result.options
     feed = float(tool.feed) if tool.feed else 1000.0
-    envelope = _envelope(surfaces, options.retract_clearance_mm)
-    out = {}
-    for op, members in result.operations().items():
-        out[op] = join_passes(
-            f"finish_{op}", [(p.tip, p.axis) for p in members], envelope, feed=feed,
-            link_step=math.radians(options.link_step_deg), longest=tool.length + 500.0,
-            tool_number=tool.number, cutter=Cutter(tool.diameter, tool.corner_radius,
-                                                   tool.flute_length),
-            spindle_rpm=tool.spindle_rpm)
-    return out
+    rules = LinkRules(
+        tool=tool, feed=feed, departure=options.departure_mm, clearance=options.clearance_mm,
+        cutter_allowance=options.cutter_allowance_mm, step_mm=options.motion_step_mm,
+        step_rad=math.radians(options.motion_step_deg),
+        envelope=_envelope(surfaces, options.retract_clearance_mm),
+        longest=tool.length + 500.0, turn_step=math.radians(options.link_step_deg),
+        feed_link=options.feed_link_mm)
+    linker = Linker(scene, kins, rules)
+    return {op: linker.join(f"finish_{op}", ordered_passes(members, options.zigzag),
+                            tool_number=tool.number,
+                            cutter=Cutter(tool.diameter, tool.corner_radius, tool.flute_length),
+                            spindle_rpm=tool.spindle_rpm)
+            for op, members in result.operations().items()}
 
 
 def _check_links(scene: CollisionScene, tool: Tool, toolpath: Toolpath,
-                 link: np.ndarray, options: FinishOptions) -> int:
-    """Collision-check every move into, out of or between passes; returns the count."""
-    moving = link[:-1] | link[1:]
+                 air: np.ndarray, options: FinishOptions) -> int:
+    """Collision-check every air move that is not a checked link (those are checked in
+    joint space by ``Linker``), linearly in W as the planner means them; the count."""
+    moving = (air & ~toolpath.link)[1:]
     edges = np.flatnonzero(np.diff(np.concatenate([[0], moving.astype(np.int8), [0]])))
     bad = 0
     for start, stop in zip(edges[::2], edges[1::2], strict=True):
@@ -89,8 +96,6 @@ def _check_links(scene: CollisionScene, tool: Tool, toolpath: Toolpath,
         bad += int((report.collides | (np.isfinite(clear)
                                        & (clear < options.clearance_mm))).sum())
     return bad
-
-
 
 
 def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
@@ -164,20 +169,25 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
 
         result = plan_finishing(surfaces, the_tool, kins, collision, opts,
                                 scene_source=scene, progress=report)
-        toolpaths = finish_toolpaths(result, surfaces)
-        link_collisions = {op: _check_links(collision, the_tool, tp, link, opts)
-                           for op, (tp, link) in toolpaths.items()}
+        toolpaths = finish_toolpaths(result, surfaces, collision, kins)
+        link_collisions = {op: _check_links(collision, the_tool, tp, air, opts)
+                           for op, (tp, air, _) in toolpaths.items()}
     summary = result.summary()
     entries = summary.pop("path_entries")
     with staged_directory(out) as stage:
         operations = {}
-        for op, (toolpath, link) in toolpaths.items():
+        for op, (toolpath, air, links) in toolpaths.items():
             name = f"finish_{op}.apt"
             write_apt(stage / name, [toolpath],
                       header=f"impeller-cam finish: {op}, tool {the_tool.name}")
             operations[op] = {"apt": name, "paths": sum(e["operation"] == op for e in entries),
-                              "poses": len(toolpath), "link_poses": int(link.sum()),
-                              "link_collisions": link_collisions[op]}
+                              "poses": len(toolpath), "link_poses": int(air.sum()),
+                              "link_collisions": link_collisions[op],
+                              "link_kinds": {
+                                  k: sum(1 for x in links if x["kind"] == k)
+                                  for k in ("feed", "direct", "clearance", "retract",
+                                            "demoted")},
+                              "links": links}
         if plots:
             for entry, path in zip(entries, result.paths, strict=True):
                 if path.path.passage == 0:

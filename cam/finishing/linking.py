@@ -1,21 +1,41 @@
-"""Joining finishing passes into one ``Toolpath`` per operation.
+"""Joining finishing passes into one ``Toolpath`` per operation: short, checked links.
 
-Every pass is entered and left along its own tool axis: a rapid to the approach
-point (the first tip moved back along the axis until it is ``clearance`` mm outside
-the impeller's bounding cylinder), a plunge at half the cutting feed, the pass,
-and a retract along the last axis to the same kind of point. Between two passes the
-link (rapids) first turns the retract point about the impeller axis in steps of at
-most ``link_step`` (radius, height and the axis relative to the part unchanged, so
-the tip stays outside the cylinder), then moves to the corner point
-``(max r, max z)`` of the two link ends, then to the next approach point: every
-tip of the link stays outside the cylinder (r or z only grows towards the corner).
-Links are collision-checked like the passes and reported separately.
+Every pass is left by a short **departure** at the cutting feed and entered by a short
+**approach** (lead-in) at the cutting feed, and the tool moves between the two on the
+lowest link that is collision-free as the machine will move:
+
+1. **direct**: one rapid from the departure point to the approach point;
+2. **clearance**: out along the tool axis to the clearance cylinder about the part
+   axis (``Envelope``: the impeller's bounding cylinder plus ``retract_clearance_mm``),
+   one rapid on it to above the next pass (the rotary axes turn during that move) and
+   in along the next pass's axis;
+3. **retract** (no checked link found): the rapids of the earlier scheme (retract to
+   the cylinder, turn about the part axis in steps, in again) left unchecked, so the
+   post retracts to the machine's safe Z around every rotary step; reported per link.
+
+Rapids of kinds 1 and 2 are *checked links* (``Toolpath.link``): each is checked
+where the machine will really move, along the straight line in joint space between
+the two poses' joints from the machine's inverse kinematics (the branch and C
+winding the post picks by continuity), with the cutter grown by ``clearance`` and
+shank and holder kept ``clearance`` away (in the chain ``clearance_mm`` includes the
+stock roughing left, so a rapid never enters the in-process stock); the post writes
+each as one ``G0`` with no retract (docs/postprocessors.md). A link that turns C by
+half a turn at constant height is therefore one move in the APT and in the NC.
+
+The departure starts at the pass's last posture and goes ``departure`` mm (or the
+shortest of ``DEPARTURE_SCALES`` times it for which the grown cutter is clear) along
+the tool axis, along the contact normal ``e`` away from the surfaces the ball
+touches, or half-way between; it is a feed move checked like a cut. The approach
+mirrors it at the next pass's first posture. Where no such point is clear the pass is
+left, as before, along its axis out to the clearance cylinder at feed.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,10 +44,23 @@ from cam.finishing.posture import rotate_about_z
 from impeller_cam.errors import InputError
 from postproc.toolpath import Cutter, MoveKind, Toolpath
 
-__all__ = ["Envelope", "join_passes", "retract_length"]
+if TYPE_CHECKING:
+    from cam.collision import CollisionScene
+    from cam.tools import Tool
+    from postproc.kinematics import Kinematics
+
+__all__ = ["DEPARTURE_SCALES", "Envelope", "LinkRules", "Linker", "PassEnds", "retract_length"]
 
 Array = NDArray[np.float64]
 _RETRACT_SAMPLES = 2048
+#: Departure and approach lengths tried, in units of ``LinkRules.departure``.
+DEPARTURE_SCALES = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0)
+#: Link kinds from the lowest; a link the post moves into the part goes one up.
+_LEVELS = ("direct", "clearance", "retract")
+#: Rounds of that check.
+_ROUNDS = 4
+#: Largest A or C turn of a stepover at feed between two passes, rad.
+_FEED_LINK_TURN = math.radians(10.0)
 
 
 class Envelope:
@@ -65,9 +98,378 @@ def retract_length(tip: Array, axis: Array, envelope: Envelope, longest: float) 
     return np.asarray(t[np.argmax(ok, axis=1)])
 
 
-def _link(a_tip: Array, a_axis: Array, b_tip: Array, b_axis: Array,
-          step: float) -> tuple[Array, Array]:
-    """Intermediate link poses from retract point ``a`` to approach point ``b``."""
+@dataclass(frozen=True)
+class LinkRules:
+    """How links are made and checked (mm, rad, mm/min).
+
+    Attributes
+    ----------
+    tool : Tool
+    feed : float
+        Cutting feed; departures and approaches run at it, mm/min.
+    departure : float
+        Shortest departure and approach, mm.
+    clearance : float
+        Rapids keep the cutter (grown by it) and shank and holder this far from the
+        part, mm; feed moves keep shank and holder this far (as the cuts do).
+    cutter_allowance : float
+        Departures and approaches check the cutter shrunk by this much (as cuts), mm.
+    step_mm, step_rad : float
+        Subdivision of the continuous collision checks.
+    envelope : Envelope
+        Clearance cylinder of the clearance links and of the retract fallback.
+    longest : float
+        Longest retract along a tool axis, mm.
+    turn_step : float
+        Largest rotation about +Z between points of a fallback link, rad.
+    feed_link : float
+        Passes whose ends are at most this far apart are joined by one move at feed
+        (a zig-zag stepover, checked as a cut), mm; 0: never.
+    """
+
+    tool: Tool
+    feed: float
+    departure: float
+    clearance: float
+    cutter_allowance: float
+    step_mm: float
+    step_rad: float
+    envelope: Envelope
+    longest: float
+    turn_step: float
+    feed_link: float = 0.0
+
+
+@dataclass(frozen=True)
+class PassEnds:
+    """One pass in machining order: postures, the escape directions at its ends.
+
+    Attributes
+    ----------
+    name : str
+    tip, axis : (n, 3) float64
+        Postures in machining order (a zig-zag pass already reversed).
+    escape_start, escape_end : (3,) float64
+        Unit direction away from the surfaces the ball touches at the first and last
+        posture (contact normal; at a junction the sum of hub and blade normals).
+    joints_start, joints_end : (5,) float64
+        Machine joints of the first and last posture (branch and winding reference).
+    """
+
+    name: str
+    tip: Array
+    axis: Array
+    escape_start: Array
+    escape_end: Array
+    joints_start: Array
+    joints_end: Array
+
+
+@dataclass
+class _Moves:
+    """Poses appended to an operation (tip, axis, kind, feed, checked-link flag)."""
+
+    tip: list[Array] = field(default_factory=list)
+    axis: list[Array] = field(default_factory=list)
+    kind: list[int] = field(default_factory=list)
+    feed: list[float] = field(default_factory=list)
+    link: list[bool] = field(default_factory=list)
+    delta: dict[int, Array] = field(default_factory=dict)
+
+    def add(self, tip: Array, axis: Array, kind: MoveKind, feed: float, link: bool,
+            joints: Array | None = None) -> None:
+        """Append poses; ``joints`` ((k + 1, 5): start and each pose) of checked links."""
+        steps = None if joints is None else np.diff(joints, axis=0)
+        for i, (t, a) in enumerate(zip(np.reshape(tip, (-1, 3)), np.reshape(axis, (-1, 3)),
+                                       strict=True)):
+            if link and steps is not None:
+                self.delta[len(self.tip)] = steps[i]
+            self.tip.append(t)
+            self.axis.append(a)
+            self.kind.append(int(kind))
+            self.feed.append(feed)
+            self.link.append(link)
+
+
+def _unit(v: Array) -> Array:
+    return np.asarray(v / np.linalg.norm(v, axis=-1, keepdims=True))
+
+
+class Linker:
+    """Builds one operation's linked toolpath and reports every link."""
+
+    def __init__(self, scene: CollisionScene, kins: Kinematics, rules: LinkRules) -> None:
+        self.scene = scene
+        self.kins = kins
+        self.rules = rules
+
+    # -- checks ---------------------------------------------------------------------
+
+    def _rapid_free(self, joints: Array) -> bool:
+        """Joint-space straight moves through ``joints`` (k, 5) keep the rapid clearance."""
+        r = self.rules
+        samples = [joints[:1]]
+        for q0, q1 in zip(joints[:-1], joints[1:], strict=True):
+            # joint samples at most step_rad apart in A and C (the sub-samples between
+            # them, step_mm apart on the chord, stay within R (1 - cos(step / 2)) of
+            # the arc: 2e-3 mm at R = 200 mm for 0.5 deg), or step_mm in X, Y, Z
+            span = max(float(np.abs(q1[:3] - q0[:3]).max()) / r.step_mm,
+                       float(np.abs(q1[3:] - q0[3:]).max()) / r.step_rad)
+            count = max(int(math.ceil(span)), 1)
+            t = np.linspace(0.0, 1.0, count + 1)[1:, None]
+            samples.append(q0 + t * (q1 - q0))
+        q = np.vstack(samples)
+        tip, axis = self.kins.forward(q)
+        if len(tip) < 2:
+            return True
+        report = self.scene.check_motion(
+            r.tool, tip, axis, max_step_mm=r.step_mm, max_step_deg=math.degrees(r.step_rad),
+            cutter_allowance=-r.clearance, clearance_cap=r.clearance)
+        return not bool(report.blocked(r.clearance).any())
+
+    def _feed_free(self, tip: Array, axis: Array) -> bool:
+        """A feed move (W-linear, constant axis) checked as a cut."""
+        r = self.rules
+        report = self.scene.check_motion(
+            r.tool, tip, axis, max_step_mm=r.step_mm, max_step_deg=math.degrees(r.step_rad),
+            cutter_allowance=r.cutter_allowance, clearance_cap=r.clearance)
+        return not bool(report.blocked(r.clearance).any())
+
+    def _inverse(self, tip: Array, axis: Array, previous: Array) -> Array:
+        return self.kins.inverse(np.reshape(tip, (-1, 3)), np.reshape(axis, (-1, 3)),
+                                 previous=previous)
+
+    # -- departures and approaches ---------------------------------------------------
+
+    def escape(self, tip: Array, axis: Array, normal: Array) -> tuple[Array, float] | None:
+        """The shortest clear departure point from posture ``(tip, axis)`` and its length.
+
+        Candidates: ``DEPARTURE_SCALES`` x ``departure`` along the axis, the escape
+        normal and their bisector; the first (shortest, then in that order) whose
+        posture keeps the rapid clearance and whose feed move from ``tip`` is free.
+        """
+        r = self.rules
+        directions = [axis, _unit(axis + normal), normal]
+        lengths = np.array(DEPARTURE_SCALES) * r.departure
+        points = np.array([[tip + length * d for d in directions] for length in lengths])
+        flat = points.reshape(-1, 3)
+        report = self.scene.check_postures(r.tool, flat, np.tile(axis, (len(flat), 1)),
+                                           cutter_allowance=-r.clearance,
+                                           clearance_cap=r.clearance)
+        clear = ~report.blocked(r.clearance)
+        for index in np.flatnonzero(clear):
+            point = flat[index]
+            if self._feed_free(np.stack([tip, point]), np.stack([axis, axis])):
+                return point, float(lengths[index // len(directions)])
+        return None
+
+    def feed_link(self, a: PassEnds, b: PassEnds) -> bool:
+        """Can pass ``a`` go on into pass ``b`` by one feed move (a zig-zag stepover)?
+
+        When their ends are at most ``feed_link`` mm apart, the rotary joints turn less
+        than ``_FEED_LINK_TURN`` and the move (tip straight, axis on the great circle,
+        as the post linearises it) is free as a cut: the cutter shrunk by the cutting
+        allowance, shank and holder ``clearance`` away.
+        """
+        r = self.rules
+        tips = np.stack([a.tip[-1], b.tip[0]])
+        axes = np.stack([a.axis[-1], b.axis[0]])
+        if not 0.0 < float(np.linalg.norm(tips[1] - tips[0])) <= r.feed_link:
+            return False
+        q = self._inverse(tips, axes, a.joints_end)
+        if float(np.abs(q[1, 3:] - q[0, 3:]).max()) > _FEED_LINK_TURN:
+            return False
+        return self._feed_free(tips, axes)
+
+    # -- the operation ---------------------------------------------------------------
+
+    def join(self, name: str, passes: Sequence[PassEnds], *, tool_number: int,
+             cutter: Cutter, spindle_rpm: float | None
+             ) -> tuple[Toolpath, NDArray[np.bool_], list[dict[str, Any]]]:
+        """One operation: each pass with its departure and approach, linked.
+
+        The links are chosen with joints from the inverse kinematics of their two
+        ends; the post picks branches over the whole operation at once (least total
+        travel), which can move a link otherwise. So the operation is built, its
+        joints computed as the post will, every checked link whose joints moved is
+        checked again, and a link that is no longer clear is rebuilt one kind up
+        (direct -> clearance -> retract), up to ``_ROUNDS`` times; one still not clear
+        after that is left to the post's retract and reported ``"demoted"``.
+
+        Returns
+        -------
+        toolpath : Toolpath
+            ``link`` flags the checked-link rapids.
+        is_air : (m,) bool
+            Poses whose incoming move is not a cut (approach, departure, link).
+        links : list of dict
+            Per link: ``from``, ``to``, ``kind`` (``"direct"``, ``"clearance"``,
+            ``"retract"``: no checked link found, the post retracts to safe Z),
+            ``departure_mm``, ``approach_mm`` (None: along the axis to the cylinder).
+        """
+        starts = [self.escape(p.tip[0], p.axis[0], p.escape_start) for p in passes]
+        ends = [self.escape(p.tip[-1], p.axis[-1], p.escape_end) for p in passes]
+        stepover = [self.feed_link(a, b) for a, b in zip(passes[:-1], passes[1:], strict=True)]
+        floor: dict[int, int] = {}
+        for _ in range(_ROUNDS):
+            moves, air, reports, owner = self._build(passes, starts, ends, stepover, floor)
+            tip = np.array(moves.tip)
+            axis = _unit(np.array(moves.axis))
+            link = np.array(moves.link, bool)
+            bad = self._moved(tip, axis, link, moves.delta)
+            raise_links = {owner[row] for row in bad if owner[row] >= 0}
+            if not raise_links:
+                break
+            for k in raise_links:
+                floor[k] = _LEVELS.index(reports[k]["kind"]) + 1
+        for row in bad:
+            link[row] = False
+            reports.append({"kind": "demoted", "row": int(row),
+                            "note": "the post's joints move this checked rapid otherwise "
+                                    "and it is not clear: left to the post's safe retract"})
+        toolpath = Toolpath(
+            tip=tip, axis=axis, feed=np.array(moves.feed), kind=np.array(moves.kind, np.int8),
+            name=name, tool_number=tool_number, cutter=cutter, spindle_rpm=spindle_rpm,
+            link=link)
+        return toolpath, np.array(air, bool), reports
+
+    def _build(self, passes: Sequence[PassEnds], starts: list[tuple[Array, float] | None],
+               ends: list[tuple[Array, float] | None], stepover: list[bool],
+               floor: dict[int, int]
+               ) -> tuple[_Moves, list[bool], list[dict[str, Any]], dict[int, int]]:
+        """The operation's poses; ``stepover[k]``: pass k goes on into pass k + 1 at
+        feed; ``floor[k]``: lowest kind index for link k."""
+        r = self.rules
+        moves = _Moves()
+        air: list[bool] = []
+        reports: list[dict[str, Any]] = []
+        owner: dict[int, int] = {}  # checked-link row -> link index (-1: in or out)
+        half = 0.5 * r.feed
+
+        def add(tip: Array, axis: Array, kind: MoveKind, feed: float, link: bool,
+                is_air: bool, joints: Array | None = None) -> None:
+            before = len(moves.tip)
+            moves.add(tip, axis, kind, feed, link, joints)
+            air.extend([is_air] * (len(moves.tip) - before))
+            for row in range(before, len(moves.tip)):
+                owner[row] = len(reports) if link else -1
+
+        exit_point: tuple[Array, Array, Array, float | None] | None = None
+        previous_name = ""
+        for index, p in enumerate(passes):
+            start = starts[index]
+            outer_in = p.tip[0] + retract_length(p.tip[:1], p.axis[:1], r.envelope,
+                                                 r.longest)[0] * p.axis[0]
+            entry = start[0] if start is not None else outer_in
+            approach_mm = None if start is None else start[1]
+            if index and stepover[index - 1]:
+                # the stepover at feed into this pass, no departure, link or approach
+                reports.append({"from": previous_name, "to": p.name, "kind": "feed",
+                                "departure_mm": None, "approach_mm": round(float(
+                                    np.linalg.norm(p.tip[0] - passes[index - 1].tip[-1])), 4)})
+            elif exit_point is None:
+                # first pass: the post positions above the cylinder point, then in
+                add(outer_in, p.axis[0], MoveKind.RAPID, math.nan, False, True)
+                if start is not None:
+                    q = self._inverse(np.stack([outer_in, entry]), np.stack([p.axis[0]] * 2),
+                                      p.joints_start)
+                    before = len(moves.tip)
+                    add(entry, p.axis[0], MoveKind.RAPID, math.nan, self._rapid_free(q), True,
+                        q)
+                    owner[before] = -1
+            else:
+                kind = self._link(exit_point, (entry, p.axis[0], p.joints_start), add,
+                                  floor.get(len(reports), 0))
+                reports.append({"from": previous_name, "to": p.name, "kind": kind,
+                                "departure_mm": exit_point[3], "approach_mm": approach_mm})
+            stepped = bool(index and stepover[index - 1])
+            add(p.tip[0], p.axis[0], MoveKind.PLUNGE,
+                r.feed if start is not None or stepped else half, False, True)
+            add(p.tip[1:], p.axis[1:], MoveKind.FEED, r.feed, False, False)
+            end = ends[index]
+            previous_name = p.name
+            if index < len(passes) - 1 and stepover[index]:
+                exit_point = (p.tip[-1], p.axis[-1], p.joints_end, 0.0)
+                continue
+            if end is not None:
+                exit_point = (end[0], p.axis[-1], p.joints_end, end[1])
+                add(end[0], p.axis[-1], MoveKind.RETRACT, r.feed, False, True)
+            else:
+                out = p.tip[-1] + retract_length(p.tip[-1:], p.axis[-1:], r.envelope,
+                                                 r.longest)[0] * p.axis[-1]
+                exit_point = (out, p.axis[-1], p.joints_end, None)
+                add(out, p.axis[-1], MoveKind.RETRACT, half, False, True)
+            if index == len(passes) - 1 and exit_point[3] is not None:
+                outer = exit_point[0] + retract_length(
+                    exit_point[0][None], exit_point[1][None], r.envelope, r.longest)[0] \
+                    * exit_point[1]
+                q = self._inverse(np.stack([exit_point[0], outer]),
+                                  np.stack([exit_point[1]] * 2), p.joints_end)
+                before = len(moves.tip)
+                add(outer, exit_point[1], MoveKind.RAPID, math.nan, self._rapid_free(q), True,
+                    q)
+                owner[before] = -1
+        return moves, air, reports, owner
+
+    def _moved(self, tip: Array, axis: Array, link: NDArray[np.bool_],
+               delta: dict[int, Array]) -> list[int]:
+        """Checked-link rows the post's joints (the whole operation's inverse kinematics)
+        move otherwise than the pair they were checked with, and that are not clear."""
+        joints = self.kins.inverse(tip, axis)
+        bad = []
+        for row in np.flatnonzero(link).tolist():
+            step = joints[row] - joints[row - 1]
+            if np.allclose(step, delta[row], rtol=0.0, atol=1e-9):
+                continue
+            if not self._rapid_free(joints[row - 1:row + 1]):
+                bad.append(int(row))
+        return bad
+
+    def _link(self, exit_point: tuple[Array, Array, Array, float | None],
+              entry: tuple[Array, Array, Array], add: Any, level: int = 0) -> str:
+        """Append the link from ``exit_point`` to ``entry``, of kind ``_LEVELS[level]``
+        or higher; returns its kind."""
+        r = self.rules
+        a_tip, a_axis, a_joints, _ = exit_point
+        b_tip, b_axis, _ = entry
+        q = self._inverse(np.stack([a_tip, b_tip]), np.stack([a_axis, b_axis]), a_joints)
+        if level <= 0 and self._rapid_free(q):
+            add(b_tip, b_axis, MoveKind.RAPID, math.nan, True, True, q)
+            return "direct"
+        lengths = retract_length(np.stack([a_tip, b_tip]), np.stack([a_axis, b_axis]),
+                                 r.envelope, r.longest)
+        a_out = a_tip + lengths[0] * a_axis
+        b_out = b_tip + lengths[1] * b_axis
+        tips = np.stack([a_tip, a_out, b_out, b_tip])
+        axes = np.stack([a_axis, a_axis, b_axis, b_axis])
+        q = self._inverse(tips, axes, a_joints)
+        free = [self._rapid_free(q[i:i + 2]) for i in range(3)]
+        if level <= 1 and all(free):
+            add(tips[1:], axes[1:], MoveKind.RAPID, math.nan, True, True, q)
+            return "clearance"
+        # no checked link: out (checked rapid, else at half feed), the earlier
+        # stepped turn as plain rapids (the post retracts around them), in again
+        half = 0.5 * r.feed
+        if lengths[0] > 0:
+            add(a_out, a_axis, MoveKind.RAPID if free[0] else MoveKind.RETRACT,
+                math.nan if free[0] else half, free[0], True, q[0:2])
+        link_tip, link_axis = _stepped_link(a_out, a_axis, b_out, b_axis, r.turn_step)
+        add(np.vstack([link_tip, b_out[None]]), np.vstack([link_axis, b_axis[None]]),
+            MoveKind.RAPID, math.nan, False, True)
+        if lengths[1] > 0:
+            add(b_tip, b_axis, MoveKind.RAPID if free[2] else MoveKind.PLUNGE,
+                math.nan if free[2] else half, free[2], True, q[2:4])
+        return "retract"
+
+
+def _stepped_link(a_tip: Array, a_axis: Array, b_tip: Array, b_axis: Array,
+                  step: float) -> tuple[Array, Array]:
+    """The earlier link's poses between two cylinder points (unchecked rapids).
+
+    The retract point turned about the impeller axis in steps of at most ``step``
+    (radius, height and the axis relative to the part unchanged), then the corner
+    ``(max r, max z)`` of the two ends: every tip stays outside the cylinder.
+    """
     theta_a = math.atan2(a_tip[1], a_tip[0])
     theta_b = math.atan2(b_tip[1], b_tip[0])
     turn = (theta_b - theta_a + math.pi) % (2.0 * math.pi) - math.pi
@@ -87,63 +489,3 @@ def _link(a_tip: Array, a_axis: Array, b_tip: Array, b_axis: Array,
         mid = last_axis + b_axis
         axes.append(mid / np.linalg.norm(mid) if np.linalg.norm(mid) > 1e-9 else b_axis)
     return np.reshape(tips, (-1, 3)), np.reshape(axes, (-1, 3))
-
-
-def join_passes(name: str, passes: Sequence[tuple[Array, Array]], envelope: Envelope, *,
-                feed: float, link_step: float, longest: float, tool_number: int,
-                cutter: Cutter, spindle_rpm: float | None) -> tuple[Toolpath, NDArray[np.bool_]]:
-    """One operation: approach, plunge, pass, retract for every pass, linked by rapids.
-
-    Parameters
-    ----------
-    passes : sequence of (tip (n, 3), axis (n, 3))
-        Final postures of each pass, in machining order.
-    feed : float
-        Cutting feed, mm/min (plunge and retract at half of it).
-    link_step : float
-        Largest rotation about +Z between link points, rad.
-    longest : float
-        Longest allowed retract, mm.
-
-    Returns
-    -------
-    toolpath : Toolpath
-    is_link : (m,) bool
-        Poses that are approach, retract or link poses (not cutting points).
-    """
-    tips: list[Array] = []
-    axes: list[Array] = []
-    kinds: list[NDArray[np.int8]] = []
-    feeds: list[Array] = []
-    link: list[NDArray[np.bool_]] = []
-    previous: tuple[Array, Array] | None = None
-
-    def add(t: Array, a: Array, kind: MoveKind, f: float, is_link: bool) -> None:
-        t = np.reshape(t, (-1, 3))
-        tips.append(t)
-        axes.append(np.reshape(a, (-1, 3)))
-        kinds.append(np.full(len(t), int(kind), np.int8))
-        feeds.append(np.full(len(t), f))
-        link.append(np.full(len(t), is_link))
-
-    for tip, axis in passes:
-        ends = retract_length(tip[[0, -1]], axis[[0, -1]], envelope, longest)
-        approach = tip[0] + ends[0] * axis[0]
-        retract = tip[-1] + ends[1] * axis[-1]
-        if previous is not None:
-            link_tip, link_axis = _link(previous[0], previous[1], approach, axis[0], link_step)
-            if len(link_tip):
-                add(link_tip, link_axis, MoveKind.RAPID, math.nan, True)
-        add(approach, axis[0], MoveKind.RAPID, math.nan, True)
-        add(tip[0], axis[0], MoveKind.PLUNGE, 0.5 * feed, False)
-        add(tip[1:], axis[1:], MoveKind.FEED, feed, False)
-        add(retract, axis[-1], MoveKind.RETRACT, 0.5 * feed, True)
-        previous = (retract, axis[-1])
-    axis_all = np.concatenate(axes)
-    axis_all = axis_all / np.linalg.norm(axis_all, axis=1, keepdims=True)
-    toolpath = Toolpath(
-        tip=np.concatenate(tips), axis=axis_all, feed=np.concatenate(feeds),
-        kind=np.concatenate(kinds), name=name, tool_number=tool_number, cutter=cutter,
-        spindle_rpm=spindle_rpm,
-    )
-    return toolpath, np.concatenate(link)

@@ -104,7 +104,18 @@ class FinishOptions:
         Links retract along the tool axis until the tip is this far outside the
         shroud envelope, mm.
     link_step_deg : float
-        Largest rotation about the impeller axis between link points, deg.
+        Largest rotation about the impeller axis between the points of a link that
+        found no checked way (the post retracts around each step), deg.
+    departure_mm : float
+        Shortest departure from and approach to a pass at the cutting feed, mm
+        (longer, up to 16 times, where the grown cutter is not yet clear;
+        docs/finishing.md "Links").
+    zigzag : bool
+        Run every second pass of each passage backwards (cam/finishing/order.py).
+    feed_link_mm : float
+        Consecutive passes whose ends are at most this far apart are joined by one
+        move at the cutting feed (the zig-zag stepover; checked as a cut, else linked
+        as usual), mm; 0: never.
     passages : int or None
         Number of passages to machine (default all; the others are rotations).
     blade_passes, hub_passes : bool
@@ -139,6 +150,9 @@ class FinishOptions:
     motion_step_deg: float = 0.5
     retract_clearance_mm: float = 5.0
     link_step_deg: float = 5.0
+    departure_mm: float = 1.0
+    zigzag: bool = True
+    feed_link_mm: float = 5.0
     passages: int | None = None
     blade_passes: bool = True
     hub_passes: bool = True
@@ -149,14 +163,15 @@ class FinishOptions:
                     "max_tilt_deg", "phi_l_deg", "reversal_deadband_deg",
                     "linear_deadband_mm", "delta_c_deg", "tilt_search_deg",
                     "tilt_search_step_deg", "repair_blend_mm", "motion_step_mm",
-                    "motion_step_deg", "retract_clearance_mm", "link_step_deg",
+                    "motion_step_deg", "retract_clearance_mm", "link_step_deg", "departure_mm",
                     "tessellation_mm")
         for name in positive:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise InputError("must be a positive number", field=name, value=value,
                                  accepted="a finite number > 0")
-        for name in ("c_tilt_deg", "cutter_allowance_mm", "clearance_mm", "repair_margin_mm"):
+        for name in ("c_tilt_deg", "cutter_allowance_mm", "clearance_mm", "repair_margin_mm",
+                     "feed_link_mm"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
                 raise InputError("must be a number >= 0", field=name, value=value,

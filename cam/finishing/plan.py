@@ -427,5 +427,5 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
 
 
 def passes_of(results: Sequence[PathResult]) -> list[tuple[Array, Array]]:
-    """``(tip, axis)`` of each path result, for ``linking.join_passes``."""
+    """``(tip, axis)`` of each path result (final postures, machining order)."""
     return [(r.tip, r.axis) for r in results]

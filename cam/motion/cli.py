@@ -241,6 +241,7 @@ def time_command(
     as_json: JsonFlag = False,
 ) -> None:
     """Cycle time of an NC program under the machine's velocity/acceleration/jerk limits."""
+    from cam.motion.blending import blended_program_time
     from cam.motion.cycle_time import format_seconds, program_cycle_time
     from cam.motion.program_servo import program_joints
     from postproc.machine import load_machine
@@ -248,11 +249,17 @@ def time_command(
 
     mach = load_machine(machine)
     prog = read_nc(program)
-    times = program_cycle_time(prog, mach, program_joints(prog, mach))
+    joints = program_joints(prog, mach)
+    times = program_cycle_time(prog, mach, joints)
+    blended = blended_program_time(prog, mach, joints)
     data = times.as_dict()
     data["program"] = str(program)
+    data["blended_time_s"] = blended.total
+    data["blend_tolerance_mm"] = blended.tolerance
     _emit(data, as_json, [
         f"blocks             {data['blocks']}",
+        f"blended time       {format_seconds(blended.total)} "
+        f"({blended.total:.2f} s, look-ahead blending within G64 P{blended.tolerance:g})",
         f"cycle time         {format_seconds(times.limited_total)} "
         f"({times.limited_total:.2f} s, jerk-limited, exact stop)",
         f"nominal time       {format_seconds(times.nominal_total)} "

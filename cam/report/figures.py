@@ -119,10 +119,17 @@ def path_layers(folder: RunFolder) -> tuple[dict[str, list[Any]], list[str]]:
         except InputError as error:
             problems.append(f"cannot read {relative}: {error}")
             continue
-        label, colour = operation_colour(stage, PurePosixPath(relative).stem)
-        runs = [run for tp in toolpaths
-                for run in cutting_runs(tp.tip, tp.kind != int(MoveKind.FEED))]
-        layers.setdefault(stage, []).append(PathLayer(label, colour, runs))
+        # a file per operation, or one file whose sections are the operations (the
+        # roughing program: each UMR visit a section): one layer per UMR or operation
+        by_label: dict[str, tuple[str, list[Any]]] = {}
+        stem = PurePosixPath(relative).stem
+        for tp in toolpaths:
+            name = tp.name if stage == "rough" or len(toolpaths) > 1 else stem
+            label, colour = operation_colour(stage, name)
+            runs = cutting_runs(tp.tip, tp.kind != int(MoveKind.FEED))
+            by_label.setdefault(label, (colour, []))[1].extend(runs)
+        for label, (colour, runs) in by_label.items():
+            layers.setdefault(stage, []).append(PathLayer(label, colour, runs))
     return layers, problems
 
 

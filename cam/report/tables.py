@@ -235,22 +235,39 @@ def cycle_time_section(folder: RunFolder) -> Section:
         lack(parts, lost, folder.why_missing("motion/motion.json"))
     else:
         programs = [p for p in motion.get("programs") or [] if isinstance(p, dict)]
+
+        def share(p: dict[str, Any]) -> Cell:
+            value = p.get("air_share")
+            return 100.0 * value if isinstance(value, int | float) else None
+
         rows = [[str(p.get("nc", p.get("name", ""))), str(p.get("operation", "")),
                  p.get("blocks"), p.get("nominal_s"), p.get("cycle_time_s"),
-                 p["cycle_time_s"] / 60.0 if isinstance(p.get("cycle_time_s"), int | float)
-                 else None] for p in programs]
+                 p.get("cutting_s"), p.get("air_s"), share(p), p.get("rotary_link_s"),
+                 p.get("exact_stop_s")] for p in programs]
         total = motion.get("total_s")
         rows.append(["total", "", None, motion.get("total_nominal_s"), total,
-                     total / 60.0 if isinstance(total, int | float) else None])
+                     _total(programs, "cutting_s"), _total(programs, "air_s"), None,
+                     _total(programs, "rotary_link_s"), motion.get("total_exact_stop_s")])
         parts.append(table(["NC program", "Operation", "Blocks", "Nominal (s)",
-                            "Cycle time (s)", "Cycle time (min)"], rows, digits=1,
+                            "Cycle time (s)", "Cutting (s)", "Air (s)", "Air (%)",
+                            "Rotary links (s)", "Exact stop (s)"], rows, digits=1,
                            caption="NC program cycle times"))
         basis = motion.get("cycle_time_basis")
         parts.append(note("From motion/motion.json \"programs\" and \"total_s\": cycle time "
-                          "= jerk-limited exact-stop time of every block under the machine's "
-                          "axis limits; nominal = length / feed"
+                          "= look-ahead blending within the program's path tolerance under "
+                          "the machine's axis limits; air = rapids, approaches, departures "
+                          "and links (rotary links: rapids that turn A or C); exact stop = "
+                          "a stop at every block (upper bound); nominal = length / feed"
                           + (f" (basis: {basis})." if basis else ".")))
     return Section("cycle-time", "Cycle time", "\n".join(parts), lost)
+
+
+def _total(programs: list[dict[str, Any]], key: str) -> Cell:
+    """Sum of ``key`` over the programs, or None when a program lacks it."""
+    values = [p.get(key) for p in programs]
+    if not values or not all(isinstance(v, int | float) for v in values):
+        return None
+    return float(sum(v for v in values if isinstance(v, int | float)))
 
 
 def _candidates(document: dict[str, Any], prefix: str = "", depth: int = 2

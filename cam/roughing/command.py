@@ -2,10 +2,13 @@
 
 Writes into OUT/ (all or nothing, ``staged_directory``):
 
-* ``rough_umr<i>_layers<k>-<k>.apt``: one APT operation per visit of a UMR (its
-  layers ``k`` in all passages; every passage a ``$$ SEGMENT/3+2,<n>`` block with
-  its fixed axis), in cut order: every UMR's layer k before any UMR's layer k + 1
-  (``layers_per_visit``; ``rough_umr<i>.apt`` when a UMR is cut in one visit);
+* ``rough.apt``: the whole roughing operation, one program with one tool call; each
+  visit of a UMR (its layers ``k`` in all passages; every passage a
+  ``$$ SEGMENT/3+2,<n>`` block with its fixed axis) is one section
+  (``$$ OPERATION/rough_umr<i>_layers<k>-<k>``), in cut order: every UMR's layer k
+  before any UMR's layer k + 1 (``layers_per_visit``; ``rough_umr<i>`` when a UMR is
+  cut in one visit). With ``program_layout = "visit"`` each section is its own file
+  ``rough_umr<i>_layers<k>-<k>.apt`` (the earlier layout);
 * ``rough.json``: UMRs (lane, axis, ``A_deg``, ``C_deg``, area), ``collisions``
   (postures, moves, index moves), ``min_allowance_mm``, ``time_min`` (``3axis`` /
   ``5axis`` by feed, nominal), ``time_limited_min`` (with the machine's limits),
@@ -386,12 +389,23 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
         document["plan_notes"]["5axis"] = [dict(b.notes) for b in result.baseline
                                            if b.passage == 0]
     with staged_directory(out) as stage:
-        for path in paths:
-            name = f"{path.name}.apt"
-            write_apt(stage / name, [path], header=f"impeller-cam rough: {path.name}, "
-                      f"tool {the_tool.name}, 3+2 segments per passage")
-            document["operations"].append({"apt": name, "poses": len(path),
-                                           "segments": int(len(np.unique(path.segment)))})
+        if opts.program_layout == "operation":
+            # one program, one tool call: each UMR visit a section ($$ OPERATION/)
+            write_apt(stage / "rough.apt", paths, header=f"impeller-cam rough: "
+                      f"{len(paths)} UMR visits, tool {the_tool.name}, 3+2 segments per "
+                      "passage")
+            document["operations"].append({
+                "apt": "rough.apt", "poses": int(sum(len(p) for p in paths)),
+                "segments": int(sum(len(np.unique(p.segment)) for p in paths)),
+                "sections": [{"name": p.name, "poses": len(p),
+                              "segments": int(len(np.unique(p.segment)))} for p in paths]})
+        else:
+            for path in paths:
+                name = f"{path.name}.apt"
+                write_apt(stage / name, [path], header=f"impeller-cam rough: {path.name}, "
+                          f"tool {the_tool.name}, 3+2 segments per passage")
+                document["operations"].append({"apt": name, "poses": len(path),
+                                               "segments": int(len(np.unique(path.segment)))})
         if compare:
             write_text_atomic(stage / "table1.md", table1_markdown(document))
         write_text_atomic(stage / "rough.json", json.dumps(document, indent=2) + "\n")

@@ -10,7 +10,10 @@ from cam.roughing.layers import LAYERINGS
 from impeller_cam.errors import InputError
 from impeller_cam.options import options_from_mapping
 
-__all__ = ["FEEDS", "RoughOptions"]
+__all__ = ["FEEDS", "PROGRAM_LAYOUTS", "RoughOptions"]
+
+#: One program per operation (UMR visits as sections) or one per UMR visit.
+PROGRAM_LAYOUTS = ("operation", "visit")
 
 #: Feeds of the paper's Table 1, mm/min.
 FEEDS = (500.0, 1000.0, 1500.0, 2000.0)
@@ -70,6 +73,10 @@ class RoughOptions:
         tilted shank of one UMR reaches over the neighbouring UMR's part of the
         passage, so that part must be cut down to about the same layer first
         (docs/roughing.md, "Cut order").
+    program_layout : str
+        ``"operation"``: one APT file (one NC program, one tool call) for the whole
+        roughing operation, each UMR visit a section (``$$ OPERATION/``) of it;
+        ``"visit"``: one file per UMR visit (the earlier layout).
     umr_layering, baseline_layering : str
         Cutting layers of the 3+2 plan and of the five-axis baseline: ``"depth"``
         (steps of the longest ruling's depth, at most a_p, down every ruling to the
@@ -98,6 +105,7 @@ class RoughOptions:
     layers_per_visit: int = 1
     umr_layering: str = "depth"
     baseline_layering: str = "ruling"
+    program_layout: str = "operation"
 
     def __post_init__(self) -> None:
         positive = ("scallop_mm", "step_along_mm", "mesh_spacing_mm", "reach_tolerance_mm",
@@ -124,6 +132,9 @@ class RoughOptions:
             if getattr(self, name) not in LAYERINGS:
                 raise InputError("unknown layering", field=name, value=getattr(self, name),
                                  accepted=", ".join(LAYERINGS))
+        if self.program_layout not in PROGRAM_LAYOUTS:
+            raise InputError("unknown program layout", field="program_layout",
+                             value=self.program_layout, accepted=", ".join(PROGRAM_LAYOUTS))
         if not (isinstance(self.layers_per_visit, int) and self.layers_per_visit >= 0):
             raise InputError("layers per visit must be a whole number >= 0",
                              field="layers_per_visit", value=self.layers_per_visit,

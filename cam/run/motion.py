@@ -1,7 +1,9 @@
 """The motion stage: cycle times, the UMR index moves, the servo lag (``motion/``).
 
-* Cycle time of every NC program (``cam.motion.cycle_time``): jerk-limited exact-stop
-  time under the machine's limits, and the nominal length / feed time.
+* Cycle time of every NC program (``cam.motion.breakdown``): look-ahead blending
+  within ``G64 P`` under the machine's limits, split into cutting, air (rapids,
+  approaches, departures) and rotary-link time; the exact-stop bound and the nominal
+  length / feed time.
 * Indexing: the A/C index moves between UMRs (and passages) of the rough programs,
   each timed as a synchronised rapid with the machine's limits, and the paper's
   S-curve input search (M5, ``cam.motion.optimise``) on the bundled indexing-table
@@ -207,29 +209,27 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
 
 def motion_outputs(ctx: Context) -> dict[str, Any]:
     """Write motion/motion.json and its PNGs; returns motion.json content."""
-    from cam.motion.cycle_time import program_cycle_time
-    from cam.motion.program_servo import program_joints
+    from cam.motion.breakdown import program_file_times
     from postproc.machine import load_machine
-    from postproc.nc_reader import read_nc
 
     machine = load_machine(ctx.machine)
     programs = []
     for entry in nc_programs(ctx):
-        program = read_nc(ctx.out / entry["nc"])
-        times = program_cycle_time(program, machine, program_joints(program, machine))
+        apt = ctx.out / entry["apt"] if entry.get("apt") else None
+        times = program_file_times(ctx.out / entry["nc"], apt, machine, entry["operation"])
         programs.append({"nc": entry["nc"], "operation": entry["operation"],
-                         "name": entry["name"], "blocks": len(program),
-                         "cycle_time_s": times.limited_total,
-                         "nominal_s": times.nominal_total})
+                         "name": entry["name"], **times})
     with staged_directory(ctx.out / "motion") as stage:
         document: dict[str, Any] = {
             "format": "impeller-cam motion 1",
             "machine": str(ctx.machine),
             "programs": programs,
             "total_s": float(sum(p["cycle_time_s"] for p in programs)),
+            "total_exact_stop_s": float(sum(p["exact_stop_s"] for p in programs)),
             "total_nominal_s": float(sum(p["nominal_s"] for p in programs)),
-            "cycle_time_basis": "jerk-limited exact stop per block (upper bound); "
-                                "nominal = length / feed",
+            "cycle_time_basis": "look-ahead blending within G64 P (cam/motion/blending.py); "
+                                "exact_stop = jerk-limited stop at every block (upper "
+                                "bound); nominal = length / feed",
             "indexing": _indexing(ctx, machine, stage),
             "servo": _servo(ctx, machine, stage),
         }

@@ -152,10 +152,17 @@ def independent_check(stl: Path, toolpaths: list[Toolpath], tool: Tool, allowanc
 
 
 def passes_of(toolpath: Toolpath) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Cutting passes (plunge point + feed moves) of an operation read back from APT."""
+    """Cutting passes (plunge point + feed moves) of an operation read back from APT.
+
+    A pass starts at a plunge (approach) target and runs over the feed moves after it;
+    a zig-zag stepover at feed is a plunge straight after the previous pass's last
+    feed move (docs/finishing.md "Links"), which ends that pass.
+    """
     out, start = [], None
     for i, kind in enumerate(toolpath.kind):
         if kind == MoveKind.PLUNGE:
+            if start is not None:
+                out.append((toolpath.tip[start:i], toolpath.axis[start:i]))
             start = i
         elif kind != MoveKind.FEED and start is not None:
             out.append((toolpath.tip[start:i], toolpath.axis[start:i]))

@@ -74,6 +74,10 @@ def test_time_json(tmp_path: Path) -> None:
     assert data["blocks"] == 2
     assert data["nominal_time_s"] == pytest.approx(10.0 + 100.0 / 600.0)
     assert data["cycle_time_s"] > data["nominal_time_s"]
+    # a reversal (G1 out, G0 back) stops in between: blending gains nothing, so the
+    # blended time is the exact-stop time within the corner speed's share
+    assert data["nominal_time_s"] < data["blended_time_s"] <= data["cycle_time_s"] + 1e-9
+    assert data["blend_tolerance_mm"] == 0.01
 
 
 def test_servo_on_a_program(tmp_path: Path) -> None:

@@ -102,16 +102,20 @@ def test_upper_layers_of_every_umr_cut_first(rough: tuple[Path, dict]) -> None:
     before any UMR cuts layer k + 1 (one program per UMR and layer)."""
     out, doc = rough
     umrs = len(doc["umrs"])
-    names = [op["apt"] for op in doc["operations"]]
+    # one program for the operation (program_layout "operation"): its sections are
+    # the visits, in cut order, one APT operation each
+    assert [op["apt"] for op in doc["operations"]] == ["rough.apt"]
+    visits = read_apt(out / "rough.apt")
+    names = [p.name for p in visits]
+    assert names == [s["name"] for s in doc["operations"][0]["sections"]]
     assert len(names) > umrs
     layers = [int(n.split("_layers")[1].split("-")[0]) for n in names]
     assert layers == sorted(layers) and layers[0] == 0
     for name in names[:-1]:  # the last UMR's deepest layers may form one visit
-        first, last = name.removesuffix(".apt").split("_layers")[1].split("-")
+        first, last = name.split("_layers")[1].split("-")
         assert first == last
-    for name in names:
-        segments = np.unique(np.concatenate([p.segment for p in read_apt(out / name)]))
-        assert len(segments) == 9  # every passage in each program
+    for visit in visits:
+        assert len(np.unique(visit.segment)) == 9  # every passage in each visit
 
 
 def test_baseline_is_a_valid_program(rough: tuple[Path, dict]) -> None:

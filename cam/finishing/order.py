@@ -1,0 +1,67 @@
+"""Machining order of the finished passes: per operation and passage, zig-zag.
+
+Inside each passage of an operation every second pass is run backwards (zig-zag),
+so consecutive passes start where the previous one ended and the link between them
+is a short move across the stepover instead of a return to the other end. The
+reversed pass has the same postures in reverse order: its A and C still move one
+way (reversed), the posture rules (normal angle, lead and tilt limits) hold as they
+are symmetric in the feed direction; what changes is the cutting sense (climb and
+conventional alternate). ``zigzag=False`` keeps every pass leading to trailing edge.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam.finishing.linking import PassEnds
+from cam.finishing.plan import PathResult
+
+__all__ = ["escape_normal", "ordered_passes"]
+
+Array = NDArray[np.float64]
+
+
+def escape_normal(result: PathResult, index: int) -> Array:
+    """Unit direction away from the surfaces the ball touches at posture ``index``.
+
+    Hub and blade passes: the contact normal. Junction paths touch hub and blade:
+    the sum of the hub normal and the blade's outward normal (the fillet bisector).
+    """
+    path = result.path
+    normal = np.asarray(path.normal[index], dtype=np.float64)
+    if path.operation == "junction":
+        normal = normal + np.asarray(path.away[index], dtype=np.float64)
+    return np.asarray(normal / np.linalg.norm(normal))
+
+
+def ordered_passes(results: Sequence[PathResult], zigzag: bool = True) -> list[PassEnds]:
+    """``PassEnds`` of one operation's paths in machining order.
+
+    Parameters
+    ----------
+    results : sequence of PathResult
+        The operation's finished paths, grouped by passage, in planning order.
+    zigzag : bool
+        Reverse every second pass of each passage.
+    """
+    out: list[PassEnds] = []
+    count = 0
+    passage = None
+    for r in results:
+        if r.path.passage != passage:
+            passage, count = r.path.passage, 0
+        first, last = 0, len(r.tip) - 1
+        tip, axis, joints = r.tip, r.axis, r.joints_after
+        if zigzag and count % 2 == 1:
+            tip, axis, joints = tip[::-1], axis[::-1], joints[::-1]
+            first, last = last, first
+        out.append(PassEnds(
+            name=r.path.name + (" (reversed)" if first else ""),
+            tip=np.ascontiguousarray(tip), axis=np.ascontiguousarray(axis),
+            escape_start=escape_normal(r, first), escape_end=escape_normal(r, last),
+            joints_start=np.asarray(joints[0]), joints_end=np.asarray(joints[-1])))
+        count += 1
+    return out

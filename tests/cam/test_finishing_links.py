@@ -1,0 +1,164 @@
+"""Finishing links (cam/finishing/linking.py) on a small synthetic part.
+
+Two passes half a turn apart above a cylinder: the link between them turns C by
+180 deg. It must be one checked-link rapid in the APT (checked along the machine's
+joint line) and one rotary ``G0`` in the NC with no retract between the passes, and
+rs274 must accept the program. A part in the way of every checked link forces the
+retract fallback, which finish.json-style reports name.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from cam.collision import CollisionScene
+from cam.finishing.linking import Envelope, Linker, LinkRules, PassEnds
+from cam.tools import resolve_tool
+from postproc.apt import format_apt, parse_apt
+from postproc.kinematics import kinematics_for
+from postproc.machine import load_machine
+from postproc.posting import Role, as_degrees, post_toolpaths
+from postproc.posts import PostOptions, get_post
+from postproc.program import Motion
+from postproc.toolpath import Cutter, MoveKind
+from tests.postproc.post_check import check_against_rs274, interpret, with_records
+
+ROOT = Path(__file__).resolve().parents[2]
+SIM = load_machine(ROOT / "fixtures" / "machines" / "xyzac-trt.toml")
+KINS = kinematics_for(SIM)
+TOOL = resolve_tool("ball4_taper")
+
+
+def _rotate(points: np.ndarray, angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return points @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]).T
+
+
+def _passes() -> list[PassEnds]:
+    """Pass 1 at x = 40 above a cylinder; pass 2 the same turned half a turn, reversed."""
+    axis = np.array([0.0, math.sin(1.0), math.cos(1.0)])  # A = -57 deg (+57: over travel)
+    tip = np.array([[40.0, y, 35.0] for y in np.linspace(-5.0, 5.0, 11)])
+    out: list[PassEnds] = []
+    for angle in (0.0, math.pi):
+        t = _rotate(tip, angle)
+        a = np.tile(_rotate(axis[None], angle), (len(t), 1))
+        if angle:
+            t, a = t[::-1], a[::-1]
+        q = KINS.inverse(t, a)
+        up = np.array([0.0, 0.0, 1.0])
+        out.append(PassEnds(f"pass {len(out)}", t, a, up, up, q[0], q[-1]))
+    return out
+
+
+def _linker(scene: CollisionScene) -> Linker:
+    rules = LinkRules(tool=TOOL, feed=1000.0, departure=2.0, clearance=0.5,
+                      cutter_allowance=0.05, step_mm=0.5, step_rad=math.radians(0.5),
+                      envelope=Envelope(30.0, 45.0), longest=TOOL.length + 500.0,
+                      turn_step=math.radians(5.0))
+    return Linker(scene, KINS, rules)
+
+
+def _cylinder(radius: float, top: float) -> CollisionScene:
+    mesh = trimesh.creation.cylinder(radius=radius, height=top)
+    mesh.apply_translation([0.0, 0.0, 0.5 * top])
+    return CollisionScene({"hub": mesh})
+
+
+def test_half_turn_link_is_one_checked_move_and_one_rotary_block(tmp_path: Path) -> None:
+    toolpath, air, links = _linker(_cylinder(20.0, 30.0)).join(
+        "finish two sides", _passes(), tool_number=1, cutter=Cutter(4.0, 2.0, 15.0),
+        spindle_rpm=12000.0)
+    assert [link["kind"] for link in links] == ["direct"]
+    cut = np.flatnonzero(toolpath.kind == MoveKind.FEED)
+    gap = np.arange(cut[9] + 1, cut[10])  # between the passes' feed moves
+    kinds = toolpath.kind[gap].tolist()
+    assert kinds == [MoveKind.RETRACT, MoveKind.RAPID, MoveKind.PLUNGE]
+    assert toolpath.link[gap[1]], "the half turn is a checked link"
+    assert air[gap].all() and not air[cut].any()
+    # departure and approach: 2 mm along the tool axis at the cutting feed
+    assert np.linalg.norm(toolpath.tip[gap[0]] - toolpath.tip[gap[0] - 1]) == pytest.approx(2.0)
+    assert toolpath.feed[gap[0]] == toolpath.feed[gap[2]] == 1000.0
+    # APT: one GOTO for the link; NC: one rotary G0, no retract inside the operation
+    text = format_apt([toolpath])
+    assert text.count("$$ LINK") == int(toolpath.link.sum())
+    back = with_records(parse_apt(text))
+    options = PostOptions()
+    posted = post_toolpaths(back, SIM, options)
+    rows = np.flatnonzero(posted.record >= 0)
+    inside = posted.role[int(rows[0]):int(rows[-1]) + 1]
+    assert not np.isin(inside, [Role.RETRACT, Role.ORIENT, Role.POSITION]).any()
+    c = as_degrees(posted.machine_joints)[:, 4]
+    turning = np.flatnonzero(np.abs(np.diff(c)) > 1.0) + 1
+    turning = turning[posted.record[turning] >= 0]
+    assert len(turning) == 1
+    row = int(turning[0])
+    assert posted.blocks.motion[row] == Motion.RAPID
+    assert abs(c[row] - c[row - 1]) == pytest.approx(180.0, abs=1e-6)
+    np.testing.assert_allclose(posted.machine_joints[row, :4],
+                               posted.machine_joints[row - 1, :4], atol=1e-6)
+    check_against_rs274(posted, back, interpret(get_post("linuxcnc").write(posted, options),
+                                                tmp_path))
+
+
+def test_no_clear_link_falls_back_to_the_retract_and_says_so() -> None:
+    # a ring at the passes' height: the turn about the axis meets it whatever the height
+    ring = trimesh.creation.annulus(r_min=38.0, r_max=42.0, height=200.0)
+    ring.apply_translation([0.0, 0.0, 100.0 + 40.0])
+    hub = trimesh.creation.cylinder(radius=20.0, height=30.0)
+    hub.apply_translation([0.0, 0.0, 15.0])
+    scene = CollisionScene({"hub": hub, "shroud": ring})
+    passes = _passes()
+    linker = _linker(scene)
+    linker.escape = lambda tip, axis, normal: (tip + 2.0 * axis, 2.0)  # type: ignore[method-assign]
+    toolpath, _, links = linker.join("blocked", passes, tool_number=1,
+                                     cutter=Cutter(4.0, 2.0, 15.0), spindle_rpm=None)
+    assert [link["kind"] for link in links] == ["retract"]
+    cut = np.flatnonzero(toolpath.kind == MoveKind.FEED)
+    gap = np.arange(cut[9] + 1, cut[10])
+    # the turn about the part axis: plain rapids in steps of at most 5 deg, which the
+    # post guards with its retract to safe Z
+    turning = gap[np.abs(np.einsum("ij,ij->i", toolpath.axis[gap], toolpath.axis[gap - 1])
+                         - 1.0) > 1e-9]
+    assert len(turning) >= 36
+    assert not toolpath.link[turning].any()
+    assert (toolpath.kind[turning] == MoveKind.RAPID).all()
+
+
+def test_adjacent_zigzag_passes_step_over_at_feed() -> None:
+    """Two passes 1.5 mm apart over a plate, the second reversed: one feed move joins
+    them (no departure, rapid or approach); with a rib between them it cannot."""
+    plate = trimesh.creation.box(extents=(60.0, 60.0, 10.0))
+    plate.apply_translation([40.0, 0.0, 25.0])  # top face at z = 30
+    axis = np.array([0.0, 0.0, 1.0])
+    passes = []
+    for k, x in enumerate((38.0, 39.5)):
+        tip = np.array([[x, y, 30.0] for y in np.linspace(-8.0, 8.0, 9)])
+        if k:
+            tip = tip[::-1]
+        a = np.tile(axis, (len(tip), 1))
+        q = KINS.inverse(tip, a)
+        passes.append(PassEnds(f"pass {k}", tip, a, axis, axis, q[0], q[-1]))
+    rules = replace(_linker(CollisionScene({"hub": plate})).rules, feed_link=5.0)
+    linker = Linker(CollisionScene({"hub": plate}), KINS, rules)
+    toolpath, air, links = linker.join("plate", passes, tool_number=1,
+                                       cutter=Cutter(4.0, 2.0, 15.0), spindle_rpm=None)
+    assert [link["kind"] for link in links] == ["feed"]
+    assert links[0]["approach_mm"] == pytest.approx(1.5)
+    cut = np.flatnonzero(toolpath.kind == MoveKind.FEED)
+    step = cut[7] + 1  # the first pass has 8 feed moves after its first point
+    assert toolpath.kind[step] == MoveKind.PLUNGE and air[step]
+    np.testing.assert_allclose(toolpath.tip[step], passes[1].tip[0])
+    np.testing.assert_allclose(toolpath.tip[step - 1], passes[0].tip[-1])
+    # a rib standing between the two ends: linked the usual way
+    rib = trimesh.creation.box(extents=(0.6, 4.0, 6.0))
+    rib.apply_translation([38.75, 8.0, 33.0])
+    blocked = Linker(CollisionScene({"hub": plate, "blade": rib}), KINS, rules)
+    _, _, links = blocked.join("plate", passes, tool_number=1,
+                               cutter=Cutter(4.0, 2.0, 15.0), spindle_rpm=None)
+    assert links[0]["kind"] != "feed"
