@@ -21,7 +21,7 @@ from impeller_cam.tolerances import DEFAULT_TOLERANCES
 __all__ = ["DEFAULT_RESOLUTION", "RunSettings", "resolve_settings"]
 
 #: Verification dexel spacing when neither the spec nor the caller gives one, mm.
-DEFAULT_RESOLUTION = 0.2
+DEFAULT_RESOLUTION = 0.1
 #: Keyword settings ``run_chain`` accepts besides the tools and the post.
 SETTING_KEYS = ("rough", "finish", "verify_resolution_mm", "tessellation_mm", "servo",
                 "indexing_grid")
