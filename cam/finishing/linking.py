@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 
 from cam.finishing.posture import rotate_about_z
 from impeller_cam.errors import InputError
+from postproc.kinematics.base import OverTravelError
 from postproc.toolpath import Cutter, MoveKind, Toolpath
 
 if TYPE_CHECKING:
@@ -235,6 +236,14 @@ class Linker:
             cutter_allowance=r.cutter_allowance, clearance_cap=r.clearance)
         return not bool(report.blocked(r.clearance).any())
 
+    def _reachable(self, tip: Array, axis: Array) -> bool:
+        """Whether the machine reaches posture ``(tip, axis)`` inside its travel."""
+        try:
+            self.kins.inverse(np.reshape(tip, (1, 3)), np.reshape(axis, (1, 3)))
+        except OverTravelError:
+            return False
+        return True
+
     def _inverse(self, tip: Array, axis: Array, previous: Array) -> Array:
         return self.kins.inverse(np.reshape(tip, (-1, 3)), np.reshape(axis, (-1, 3)),
                                  previous=previous)
@@ -368,9 +377,13 @@ class Linker:
                                 "departure_mm": None, "approach_mm": round(float(
                                     np.linalg.norm(p.tip[0] - passes[index - 1].tip[-1])), 4)})
             elif exit_point is None:
-                # first pass: the post positions above the cylinder point, then in
+                # first pass: the post positions above the cylinder point, then in; a
+                # cylinder point beyond the machine's travel is left out (the post's
+                # own positioning comes down the tool axis to the entry instead)
+                if not self._reachable(outer_in, p.axis[0]):
+                    outer_in = entry
                 add(outer_in, p.axis[0], MoveKind.RAPID, math.nan, False, True)
-                if start is not None:
+                if start is not None and outer_in is not entry:
                     q = self._inverse(np.stack([outer_in, entry]), np.stack([p.axis[0]] * 2),
                                       p.joints_start)
                     before = len(moves.tip)
@@ -403,6 +416,8 @@ class Linker:
                 outer = exit_point[0] + retract_length(
                     exit_point[0][None], exit_point[1][None], r.envelope, r.longest)[0] \
                     * exit_point[1]
+                if not self._reachable(outer, exit_point[1]):
+                    break  # beyond the travel: the post's end retract leaves from here
                 q = self._inverse(np.stack([exit_point[0], outer]),
                                   np.stack([exit_point[1]] * 2), p.joints_end)
                 before = len(moves.tip)
@@ -414,8 +429,16 @@ class Linker:
     def _moved(self, tip: Array, axis: Array, link: NDArray[np.bool_],
                delta: dict[int, Array]) -> list[int]:
         """Checked-link rows the post's joints (the whole operation's inverse kinematics)
-        move otherwise than the pair they were checked with, and that are not clear."""
-        joints = self.kins.inverse(tip, axis)
+        move otherwise than the pair they were checked with, and that are not clear.
+
+        When the machine cannot reach some pose of the operation (a retract beyond its
+        travel), no program can be posted from it (the post refuses it with the same
+        over-travel error), so there is nothing to re-check here.
+        """
+        try:
+            joints = self.kins.inverse(tip, axis)
+        except OverTravelError:
+            return []
         bad = []
         for row in np.flatnonzero(link).tolist():
             step = joints[row] - joints[row - 1]
@@ -442,23 +465,29 @@ class Linker:
         b_out = b_tip + lengths[1] * b_axis
         tips = np.stack([a_tip, a_out, b_out, b_tip])
         axes = np.stack([a_axis, a_axis, b_axis, b_axis])
-        q = self._inverse(tips, axes, a_joints)
-        free = [self._rapid_free(q[i:i + 2]) for i in range(3)]
+        joints: Array | None
+        try:
+            joints = self._inverse(tips, axes, a_joints)
+        except OverTravelError:  # the cylinder points lie beyond the machine's travel
+            joints = None
+        free = [joints is not None and self._rapid_free(joints[i:i + 2]) for i in range(3)]
         if level <= 1 and all(free):
-            add(tips[1:], axes[1:], MoveKind.RAPID, math.nan, True, True, q)
+            add(tips[1:], axes[1:], MoveKind.RAPID, math.nan, True, True, joints)
             return "clearance"
         # no checked link: out (checked rapid, else at half feed), the earlier
         # stepped turn as plain rapids (the post retracts around them), in again
         half = 0.5 * r.feed
         if lengths[0] > 0:
             add(a_out, a_axis, MoveKind.RAPID if free[0] else MoveKind.RETRACT,
-                math.nan if free[0] else half, free[0], True, q[0:2])
+                math.nan if free[0] else half, free[0], True,
+                None if joints is None else joints[0:2])
         link_tip, link_axis = _stepped_link(a_out, a_axis, b_out, b_axis, r.turn_step)
         add(np.vstack([link_tip, b_out[None]]), np.vstack([link_axis, b_axis[None]]),
             MoveKind.RAPID, math.nan, False, True)
         if lengths[1] > 0:
             add(b_tip, b_axis, MoveKind.RAPID if free[2] else MoveKind.PLUNGE,
-                math.nan if free[2] else half, free[2], True, q[2:4])
+                math.nan if free[2] else half, free[2], True,
+                None if joints is None else joints[2:4])
         return "retract"
 
 

@@ -156,12 +156,13 @@ def passes_of(toolpath: Toolpath) -> list[tuple[np.ndarray, np.ndarray]]:
 
     A pass starts at a plunge (approach) target and runs over the feed moves after it;
     a zig-zag stepover at feed is a plunge straight after the previous pass's last
-    feed move (docs/finishing.md "Links"), which ends that pass.
+    feed move (docs/finishing.md "Links"), which ends that pass. Plunges in a row (a
+    retract link's approach at feed, then the pass's own) start one pass.
     """
     out, start = [], None
     for i, kind in enumerate(toolpath.kind):
         if kind == MoveKind.PLUNGE:
-            if start is not None:
+            if start is not None and toolpath.kind[i - 1] == MoveKind.FEED:
                 out.append((toolpath.tip[start:i], toolpath.axis[start:i]))
             start = i
         elif kind != MoveKind.FEED and start is not None:
