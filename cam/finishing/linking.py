@@ -40,8 +40,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cam.finishing.posture import rotate_about_z
-from impeller_cam.errors import InputError
+from cam.finishing.envelope import Envelope, retract_length, stepped_link
 from postproc.kinematics.base import OverTravelError
 from postproc.toolpath import Cutter, MoveKind, Toolpath
 
@@ -53,7 +52,6 @@ if TYPE_CHECKING:
 __all__ = ["DEPARTURE_SCALES", "Envelope", "LinkRules", "Linker", "PassEnds", "retract_length"]
 
 Array = NDArray[np.float64]
-_RETRACT_SAMPLES = 2048
 #: Departure and approach lengths tried, in units of ``LinkRules.departure``.
 DEPARTURE_SCALES = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0)
 #: Link kinds from the lowest; a link the post moves into the part goes one up.
@@ -62,41 +60,6 @@ _LEVELS = ("direct", "clearance", "retract")
 _ROUNDS = 4
 #: Largest A or C turn of a stepover at feed between two passes, rad.
 _FEED_LINK_TURN = math.radians(10.0)
-
-
-class Envelope:
-    """Bounding cylinder of the impeller: ``r <= radius``, ``z <= top`` (mm)."""
-
-    def __init__(self, radius: float, top: float) -> None:
-        self.radius = float(radius)
-        self.top = float(top)
-
-    def outside(self, points: Array) -> NDArray[np.bool_]:
-        """Points strictly outside the cylinder (``(..., 3)`` -> ``(...)``)."""
-        r = np.hypot(points[..., 0], points[..., 1])
-        return np.asarray((r > self.radius) | (points[..., 2] > self.top))
-
-
-def retract_length(tip: Array, axis: Array, envelope: Envelope, longest: float) -> Array:
-    """Shortest move along each axis that takes the tip outside ``envelope``, mm, ``(n,)``.
-
-    Raises
-    ------
-    InputError
-        A tool axis does not leave the envelope within ``longest`` mm.
-    """
-    t = np.linspace(0.0, longest, _RETRACT_SAMPLES)
-    points = tip[:, None, :] + t[None, :, None] * axis[:, None, :]
-    out = envelope.outside(points)
-    # the first sample from which the tip stays outside
-    inside_after = np.flip(np.logical_or.accumulate(np.flip(~out, axis=1), axis=1), axis=1)
-    ok = ~inside_after
-    if not ok.any(axis=1).all():
-        bad = int(np.flatnonzero(~ok.any(axis=1))[0])
-        raise InputError("a pass cannot be left along its tool axis", field="tool",
-                         value=f"axis {axis[bad].round(4).tolist()} at {tip[bad].round(3)}",
-                         accepted=f"a tool axis leaving the part within {longest:g} mm")
-    return np.asarray(t[np.argmax(ok, axis=1)])
 
 
 @dataclass(frozen=True)
@@ -481,7 +444,7 @@ class Linker:
             add(a_out, a_axis, MoveKind.RAPID if free[0] else MoveKind.RETRACT,
                 math.nan if free[0] else half, free[0], True,
                 None if joints is None else joints[0:2])
-        link_tip, link_axis = _stepped_link(a_out, a_axis, b_out, b_axis, r.turn_step)
+        link_tip, link_axis = stepped_link(a_out, a_axis, b_out, b_axis, r.turn_step)
         add(np.vstack([link_tip, b_out[None]]), np.vstack([link_axis, b_axis[None]]),
             MoveKind.RAPID, math.nan, False, True)
         if lengths[1] > 0:
@@ -489,32 +452,3 @@ class Linker:
                 math.nan if free[2] else half, free[2], True,
                 None if joints is None else joints[2:4])
         return "retract"
-
-
-def _stepped_link(a_tip: Array, a_axis: Array, b_tip: Array, b_axis: Array,
-                  step: float) -> tuple[Array, Array]:
-    """The earlier link's poses between two cylinder points (unchecked rapids).
-
-    The retract point turned about the impeller axis in steps of at most ``step``
-    (radius, height and the axis relative to the part unchanged), then the corner
-    ``(max r, max z)`` of the two ends: every tip stays outside the cylinder.
-    """
-    theta_a = math.atan2(a_tip[1], a_tip[0])
-    theta_b = math.atan2(b_tip[1], b_tip[0])
-    turn = (theta_b - theta_a + math.pi) % (2.0 * math.pi) - math.pi
-    count = int(math.ceil(abs(turn) / step))
-    tips, axes = [], []
-    for k in range(1, count + 1):
-        angle = turn * k / count
-        tips.append(rotate_about_z(a_tip[None], angle)[0])
-        axes.append(rotate_about_z(a_axis[None], angle)[0])
-    last_tip = tips[-1] if tips else a_tip
-    last_axis = axes[-1] if axes else a_axis
-    r = max(math.hypot(last_tip[0], last_tip[1]), math.hypot(b_tip[0], b_tip[1]))
-    z = max(float(last_tip[2]), float(b_tip[2]))
-    corner = np.array([r * math.cos(theta_b), r * math.sin(theta_b), z])
-    if not (np.allclose(corner, last_tip) or np.allclose(corner, b_tip)):
-        tips.append(corner)
-        mid = last_axis + b_axis
-        axes.append(mid / np.linalg.norm(mid) if np.linalg.norm(mid) > 1e-9 else b_axis)
-    return np.reshape(tips, (-1, 3)), np.reshape(axes, (-1, 3))
