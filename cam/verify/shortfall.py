@@ -81,8 +81,9 @@ def stock_short_events(points: NDArray[np.float64], signed: NDArray[np.float64],
         deepest = members[int(np.argmin(signed[members]))]
         depth = float(-signed[deepest])
         size = float(np.linalg.norm(np.ptp(points[members], axis=0)))
+        x, y, z = (float(v) for v in points[deepest])
         events.append(Event(
-            "stock_short", 0, program, tuple(float(v) for v in points[deepest]), depth,
+            "stock_short", 0, program, (x, y, z), depth,
             f"the stock lies {depth:.3f} mm inside the design here ({len(members)} "
             f"surface samples over {size:.1f} mm): it does not contain the part",
             {"samples": len(members), "extent_mm": size},

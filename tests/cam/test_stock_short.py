@@ -85,6 +85,7 @@ def planted(tmp_path_factory: pytest.TempPathFactory) -> dict:
     return {"folder": folder, "stock": stock, "spot": spot - 0.5 * outward}
 
 
+@pytest.mark.slow
 def test_a_blank_planted_short_at_one_trailing_edge_is_found_there(planted: dict) -> None:
     out = planted["folder"] / "out"
     program = _idle_program(planted["folder"] / "idle.ngc")
@@ -101,6 +102,7 @@ def test_a_blank_planted_short_at_one_trailing_edge_is_found_there(planted: dict
     assert "stock_short" in (out / "verify.junit.xml").read_text()
 
 
+@pytest.mark.slow
 def test_a_short_stock_can_be_refused_before_anything_is_written(planted: dict) -> None:
     out = planted["folder"] / "refused"
     program = _idle_program(planted["folder"] / "idle.ngc")
@@ -111,6 +113,7 @@ def test_a_short_stock_can_be_refused_before_anything_is_written(planted: dict) 
     assert not out.exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("spec", [ROUND_TE, SMALL], ids=["round_te", "small"])
 def test_the_spec_blank_is_short_nowhere(spec: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
