@@ -7,6 +7,11 @@ stock maps start from) and verification simulates it (``cam.verify.sources``,
 envelope's signed distance, closed by a ring out to the rim up to the shroud's
 outlet height): it planned cuts in air around the trailing edges and knew a
 slightly different stock than the one verification removes.
+
+Since issue 28 the blank follows the design's true extent (``spec_blank_profile``:
+every blade face, round and cut edges, tips, fillets, splitters, dilated by the stock
+allowance), not the camber lines' ends, which the edges and the fillets at the rim
+reach beyond: the camber-based blank cut up to 0.7 mm into the part.
 """
 
 from __future__ import annotations
@@ -24,7 +29,8 @@ __all__ = ["SLACK", "STEP", "blank_profile", "raised_profile", "spec_blank_profi
 #: Spacing of the radii at which the dilated blades' envelope is taken, mm. Between
 #: two radii the envelope is linear: where a disc's vertical side falls between them
 #: (the outer side of a fillet's bump on the rim), up to this much of the allowance
-#: may be missing; nowhere does the blank cut into the design.
+#: may be missing (with an allowance larger than this the blank never cuts into the
+#: design).
 STEP = 0.05
 #: Tolerance of the profile's thinning, mm; the envelope is raised by as much first,
 #: so the thinned blank still holds the allowance.
@@ -197,6 +203,11 @@ def raised_profile(profile: NDArray[np.float64], radii: NDArray[np.float64],
     -------
     (j, 2) float64
         Closed polygon (r, z), mm, first point repeated.
+
+    Notes
+    -----
+    The profile's top is read, at each radius, as its highest point there; a top
+    path whose radius turns back (an overhang) is filled underneath.
     """
     path = np.asarray(profile[1:-1], dtype=np.float64)
     bore = float(profile[0, 0])

@@ -4,7 +4,9 @@ The blank is the solid of revolution of ``geometry.blank.spec_blank_profile`` (M
 cylindrical blank is first machined by lathe to form the outer profile of the shroud
 surface"): the shroud contour offset outwards by the stock allowance, the inlet face,
 the hub nose turned to its contour, the outer diameter turned to the blades' largest
-radius and beyond it the hub contour plus the allowance out to the rim. Verification
+radius plus the allowance and beyond it the hub contour plus the allowance out to the
+rim, raised wherever the blades' faces and fillets need more to keep the allowance
+(the design's true extent, issue 28). Verification
 (``--stock SPEC``) simulates the same solid, so the planner's "is there material"
 is the verifier's.
 

@@ -1,21 +1,22 @@
-"""Deviation of a verified stock from the design, face role by face role.
+"""Deviation of a verified stock from the design, face by face, and the verdict.
 
 ``verify.json`` gives one deviation summary for the whole part. Acceptance needs it
-per region: the blades (pressure and suction sides) and the hub must be left within
-allowance + scallop (+ the verification's gouge tolerance), while faces the chain does
-not machine (back face, bore, rim, the shroud-side blade tips: turned on a lathe) keep
-the blank's stock allowance, and a ball larger than the fillet radius leaves material
-in the fillets and on the strip of hub and blade next to them. So every stock surface
-sample (a dexel end, ``Stock.surface_samples``) gets the role of its closest design
-triangle (``Impeller.triangle_roles``) and the summary is reported per role, with
-blade and hub samples split into those within ``near_fillet`` of a fillet face and
-the rest. Blade-side samples beyond the shroud envelope (the revolved shroud contour,
-``shroud_offset`` > 0) are the blank's skin over the blade tips: its nearest design
-triangle may be a blade side at the tip edge, but that material is the shroud turning's
-business, not the blade finishing's, so it is reported apart as well; so are samples
-whose closest design point lies on a tip's edge (the skin's corner, which on a leaning
-blade reaches slightly inside the envelope: 220 of nine_blade's suction-side samples,
-up to 0.29 mm inside it and up to 0.55 mm from the design).
+per face: every milled face (blade sides, hub between the blades, fillets, leading
+and trailing edges, of main blades and splitters) must be left within allowance +
+scallop (+ the verification's gouge tolerance), while the faces turned on the lathe
+(back face, bore, rim, nose, the blank's skin over the blade tips, the hub upstream
+of the leading and downstream of the trailing edge) keep the blank's stock allowance
+and are listed apart. Every stock surface sample (a dexel end,
+``Stock.surface_samples``) gets the role of its closest design triangle
+(``Impeller.triangle_roles``); ``face_groups`` splits the samples into milled and
+lathe groups: blade-side and hub samples within ``near_fillet`` of a fillet face are
+their own milled groups (a ball larger than the fillet radius cannot reach there);
+samples of a blade side or edge beyond the shroud envelope (``shroud_offset`` > 0) or
+whose closest design point lies on a tip's edge (the skin's corner, which on a
+leaning blade reaches slightly inside the envelope: 220 of nine_blade's suction-side
+samples, up to 0.29 mm inside it and up to 0.55 mm from the design) are the skin over
+the tips. ``region_summary`` reports every group and the verdict: every milled group
+within the limit, no gouge, no stock short of the design.
 """
 
 from __future__ import annotations
