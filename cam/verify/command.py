@@ -183,11 +183,13 @@ def _short_stock(work: Stock, distance: DesignDistance, opts: VerifyOptions, pro
                  stock: str) -> list[Event]:
     """``stock_short`` events of the initial stock (``cam.verify.shortfall``); with
     ``opts.refuse_short_stock`` an ``InputError`` naming the deepest place instead."""
-    from cam.verify.shortfall import stock_short_events
+    from cam.verify.shortfall import below_design_top, stock_short_events
 
     points, _, moves = work.surface_samples()
-    signed, _ = distance.closest(points)
-    found = stock_short_events(points, signed, moves, opts.gouge_tolerance, program)
+    maybe = below_design_top(points, distance.triangles)
+    signed, _ = distance.closest(points[maybe])
+    found = stock_short_events(points[maybe], signed, moves[maybe], opts.gouge_tolerance,
+                               program)
     if found and opts.refuse_short_stock:
         deepest = found[0]
         where = ", ".join(f"{v:.2f}" for v in deepest.position)

@@ -1,7 +1,9 @@
 """Stock short of the design: where the initial stock cuts into the part.
 
 Before the first block, the surface of the stock (its dexel ends,
-``Stock.surface_samples``) is measured against the design. A sample no block has
+``Stock.surface_samples``) is measured against the design (those above the design's
+highest point at their radius or beyond its largest radius, ``below_design_top``,
+are outside it without a distance query). A sample no block has
 touched (move id < 0) lying deeper inside the design than the gouge tolerance means
 the stock does not contain the part: no program can put that material back. Such
 samples are grouped into places (samples in touching cubes of ``CLUSTER`` mm) and
@@ -16,11 +18,55 @@ from numpy.typing import NDArray
 
 from cam.verify.events import Event
 
-__all__ = ["CLUSTER", "short_places", "stock_short_events"]
+__all__ = ["BAND", "CLUSTER", "below_design_top", "short_places", "stock_short_events"]
 
 #: Edge of the cubes in which short samples are grouped into places, mm (samples in
 #: cubes sharing a face, an edge or a corner form one place).
 CLUSTER = 1.0
+#: Width of the bands of radius of ``below_design_top``, mm.
+BAND = 0.5
+
+
+def below_design_top(points: NDArray[np.float64], triangles: NDArray[np.float64],
+                     band: float = BAND) -> NDArray[np.bool_]:
+    """Whether each point may lie inside the design: not above its highest point at
+    the point's radius (per band of radius, conservatively) nor beyond its largest
+    radius.
+
+    A stock's top surface and outer diameter, most of a turned blank's samples, are
+    answered here without a distance query.
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+        mm.
+    triangles : (t, 3, 3) float64
+        The design's triangles, mm.
+
+    Returns
+    -------
+    (n,) bool
+        False only where the point is certainly outside the design.
+    """
+    radius = np.hypot(triangles[..., 0], triangles[..., 1])
+    edge = np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2).max(axis=1)
+    # r is convex along a triangle: its largest value is at a corner, its smallest at
+    # most one edge length below the corners'
+    lo = np.maximum(radius.min(axis=1) - edge, 0.0)
+    hi = radius.max(axis=1)
+    top = triangles[..., 2].max(axis=1)
+    bands = int(np.ceil(hi.max() / band)) + 1
+    first, last = (lo / band).astype(np.int64), (hi / band).astype(np.int64)
+    z_top = np.full(bands, -np.inf)
+    for k in range(int((last - first).max()) + 1):
+        reach = first + k <= last
+        np.maximum.at(z_top, (first + k)[reach], top[reach])
+    r = np.hypot(points[:, 0], points[:, 1])
+    index = (r / band).astype(np.int64)
+    inside = index < bands
+    out = np.zeros(len(points), dtype=bool)
+    out[inside] = points[inside, 2] <= z_top[index[inside]]
+    return out
 
 
 def short_places(points: NDArray[np.float64], cluster: float = CLUSTER
