@@ -194,10 +194,12 @@ def _short_stock(work: Stock, distance: DesignDistance, opts: VerifyOptions, pro
         deepest = found[0]
         where = ", ".join(f"{v:.2f}" for v in deepest.position)
         raise InputError(
-            f"the stock is short of the design at {len(found)} place(s): up to "
-            f"{deepest.amount:.3f} mm inside the part (deepest at x, y, z = {where} mm)",
-            field="--stock", value=stock,
-            accepted="a stock that contains the design (geometry.blank.spec_blank_profile)")
+            f"the stock does not contain the design: short at {len(found)} place(s), up to "
+            f"{deepest.amount:.3f} mm inside the part (deepest at x, y, z = {where} mm); "
+            "no program can put that material back",
+            field="stock", value=stock,
+            accepted="a stock that contains the design (a spec's blank: "
+                     "geometry.blank.spec_blank_profile)")
     return found
 
 

@@ -106,7 +106,7 @@ def test_a_blank_planted_short_at_one_trailing_edge_is_found_there(planted: dict
 def test_a_short_stock_can_be_refused_before_anything_is_written(planted: dict) -> None:
     out = planted["folder"] / "refused"
     program = _idle_program(planted["folder"] / "idle.ngc")
-    with pytest.raises(InputError, match="short of the design"):
+    with pytest.raises(InputError, match="does not contain the design: short at 1 place"):
         run_verify([program], MACHINE, "ball6", str(planted["stock"]), ROUND_TE, RESOLUTION,
                    out, options=VerifyOptions(render=False, refuse_short_stock=True),
                    progress=False)

@@ -271,6 +271,33 @@ def test_a_stage_without_its_inputs_names_the_stage_to_run(tmp_path: Path,
     assert "rough" in err and "run the rough stage first" in err
 
 
+def test_a_short_blank_stops_the_verify_stage(chain_small: Path, tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    """The chain verifies its own blank before the first block: a blank 5 % too
+    narrow (about 1 mm short at the rim and 0.8 mm at the trailing edges) fails the
+    verify stage with exit code 2 and one message; verify/ keeps its earlier files."""
+    import cam.verify.sources as sources
+
+    out = copy_of(chain_small, tmp_path)
+    before = (out / "verify" / "regions.json").read_bytes()
+    real = sources.spec_blank_profile
+
+    def narrow(spec, surfaces=None):  # type: ignore[no-untyped-def]
+        return real(spec, surfaces) * [0.95, 1.0]
+
+    monkeypatch.setattr(sources, "spec_blank_profile", narrow)
+    code = main(["run", str(SMALL_SPEC), "-m", str(CHAIN_MACHINE), "-o", str(out),
+                 "--rough-tool", "ball6", "--finish-tool", "ball4_taper",
+                 "--stage", "verify", "--resolution", "1.0"])
+    assert code == 2
+    assert "does not contain the design" in capsys.readouterr().err
+    stages = {s["name"]: s for s in load(out, "run.json")["stages"]}
+    assert stages["verify"]["status"] == "failed"
+    assert "does not contain the design" in stages["verify"]["error"]
+    assert (out / "verify" / "regions.json").read_bytes() == before
+
+
 def test_rerun_of_verify_replaces_its_nested_folder(chain_small: Path, tmp_path: Path
                                                     ) -> None:
     out = copy_of(chain_small, tmp_path)
