@@ -293,30 +293,37 @@ def _region_tables(folder: RunFolder) -> list[str]:
             parts.append(missing(f"verify/regions.json has no \"{stage}\" table"))
             continue
         checked = set(summary.get("acceptance") or {})
+        turned = set(summary.get("lathe") or {})
         rows: list[list[Cell]] = []
         for role, t in summary["roles"].items():
             if not isinstance(t, dict) or not t.get("samples"):
                 continue
             share = t.get("machined_share")
-            rows.append([role, "yes" if role in checked else "no", t.get("samples"),
+            kind = "milled" if role in checked else "lathe" if role in turned else "no"
+            rows.append([role, kind, t.get("samples"),
                          100.0 * share if isinstance(share, int | float) else None,
                          t.get("max_mm"), t.get("p99_mm"), t.get("median_mm"), t.get("min_mm"),
                          t.get("over_limit"), t.get("within_limit")])
         limit, allowance, tolerance = (_mm(summary.get(k)) for k in
                                        ("limit_mm", "allowance_mm", "tolerance_mm"))
         caption = (f"After {stage}ing, per face: limit {limit} mm = allowance {allowance} + "
-                   f"tolerance {tolerance} mm; accepted: "
+                   f"tolerance {tolerance} mm on milled faces, "
+                   f"{_mm(summary.get('lathe_limit_mm'))} mm on lathe faces; stock short: "
+                   f"{summary.get('stock_short_samples', 'n/a')} samples; accepted: "
                    f"{'yes' if summary.get('accepted') else 'no'}")
         parts.append(table(["Face", "Checked", "Samples", "Machined (%)", "Max (mm)",
                             "99 % (mm)", "Median (mm)", "Min (mm)", "Over limit",
                             "Within limit"], rows, digits=(0, 0, 0, 1, 3, 3, 3, 3, 0, 0),
                            caption=caption))
     parts.append(note("From verify/regions.json: every stock surface sample takes the face "
-                      "role of its closest design triangle; blade sides and hub are checked "
-                      "away from the fillets (\"_near_fillet\": within the finishing ball "
-                      f"radius {_mm(regions.get('finish_ball_radius_mm'))} mm of a fillet, where a "
-                      "ball larger than the fillet cannot reach); other faces (back, bore, "
-                      "rim, shroud) are not machined by the chain and keep the blank's stock."))
+                      "role of its closest design triangle. Milled faces (checked, all of "
+                      "them in the verdict): blade sides, hub between the blades, fillets, "
+                      "leading and trailing edges, and the strips of blade and hub next to "
+                      "the fillets (\"_near_fillet\": within the finishing ball radius "
+                      f"{_mm(regions.get('finish_ball_radius_mm'))} mm of a fillet). Lathe "
+                      "faces (back, bore, rim, nose, the skin over the tips "
+                      "\"_beyond_shroud\", the hub outside the blades) are turned, not "
+                      "milled, and listed against the blank's stock allowance."))
     return parts
 
 

@@ -32,6 +32,7 @@ VERIFY_RUNS = (("rough", "verify/rough/verify.json"), ("finish", "verify/finish/
 REGIONS = "verify/regions.json"
 #: Event checks of the summary: (event type, what "no event" means).
 EVENT_CHECKS = (
+    ("stock_short", "No stock short of the design"),
     ("gouge", "No gouge"),
     ("holder_collision", "No shank/holder collision"),
     ("overtravel", "No over-travel"),
@@ -139,10 +140,11 @@ def summary_checks(folder: RunFolder) -> list[tuple[str, bool | None, str]]:
 
 
 def _excess_check(folder: RunFolder) -> tuple[str, bool | None, str]:
-    """Blades and hub within allowance + scallop: verify/regions.json (per face role,
-    fillet strips apart) when the chain wrote it, else the excess events of
+    """Every milled face within allowance + scallop: verify/regions.json (per face
+    group: blade sides, hub, fillets, edges, the strips next to the fillets; lathe
+    faces apart) when the chain wrote it, else the excess events of
     verify/finish/verify.json (whole part, against the allowance verify was given)."""
-    name = "Material left within allowance + scallop"
+    name = "Every milled face within allowance + scallop"
     regions = folder.json(REGIONS)
     if regions is not None:
         finish = regions.get("finish") or {}
@@ -150,15 +152,23 @@ def _excess_check(folder: RunFolder) -> tuple[str, bool | None, str]:
         limit = _number(finish.get("limit_mm"))
         if not acceptance or limit is None:
             return name, None, f"{REGIONS} has no finish acceptance table"
+        failed = [role for role, t in acceptance.items() if not t.get("within_limit", True)]
         worst = ", ".join(f"{role} {_text(table.get('max_mm'))} mm"
+                          + (" (over)" if role in failed else "")
                           for role, table in acceptance.items())
-        passed = all(bool(t.get("within_limit", True)) for t in acceptance.values())
+        short = int(finish.get("stock_short_samples") or 0)
+        passed = not failed and not short and not finish.get("gouge")
+        verdict = (f"not passed on {len(failed)} of {len(acceptance)} milled faces "
+                   f"({', '.join(failed)})" if failed else
+                   f"all {len(acceptance)} milled faces within the limit")
+        if short:
+            verdict += f"; {short} unmachined samples inside the design (stock short)"
         return name, passed, (
-            f"largest material left after finishing (blades and hub away from the fillets): "
-            f"{worst}; limit {format_number(limit)} mm = allowance "
+            f"{verdict}. Largest material left after finishing per milled face: {worst}; "
+            f"limit {format_number(limit)} mm = allowance "
             f"{_text(finish.get('allowance_mm'))} + tolerance "
-            f"{_text(finish.get('tolerance_mm'))} mm ({REGIONS}; fillet strips in the "
-            "deviation section)")
+            f"{_text(finish.get('tolerance_mm'))} mm ({REGIONS}; lathe faces listed apart "
+            "in the deviation section)")
     path = "verify/finish/verify.json"
     document = folder.json(path)
     if document is None:
@@ -194,7 +204,8 @@ def summary_section(folder: RunFolder) -> Section:
     parts.append(note("Event counts: verify/rough/verify.json and verify/finish/verify.json "
                       "\"event_counts\" (all events found, before the per-type cap). Material "
                       "left: verify/regions.json \"finish\" \"acceptance\" (largest deviation "
-                      "per face role, limit = allowance + scallop + tolerance)."))
+                      "per milled face, limit = allowance + scallop + tolerance; the verdict "
+                      "passes only when every milled face passes and no stock is short)."))
     parts.append('<div class="cols">' + definition_table(_context_rows(folder))
                  + _stage_table(folder) + "</div>")
     return Section("summary", "Summary", "\n".join(parts))

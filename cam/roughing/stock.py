@@ -4,7 +4,9 @@ The blank is the solid of revolution of ``geometry.blank.spec_blank_profile`` (M
 cylindrical blank is first machined by lathe to form the outer profile of the shroud
 surface"): the shroud contour offset outwards by the stock allowance, the inlet face,
 the hub nose turned to its contour, the outer diameter turned to the blades' largest
-radius and beyond it the hub contour plus the allowance out to the rim. Verification
+radius plus the allowance and beyond it the hub contour plus the allowance out to the
+rim, raised wherever the blades' faces and fillets need more to keep the allowance
+(the design's true extent, issue 28). Verification
 (``--stock SPEC``) simulates the same solid, so the planner's "is there material"
 is the verifier's.
 
@@ -27,8 +29,8 @@ from geometry.surfaces import ImpellerSurfaces
 
 __all__ = ["Blank"]
 
-#: Points tested against the profile's edges at a time (memory: CHUNK x edges).
-CHUNK = 20000
+#: Point-edge pairs tested at a time (memory: a few arrays of this many floats).
+PAIRS = 2_000_000
 
 
 class Blank:
@@ -43,7 +45,7 @@ class Blank:
     """
 
     def __init__(self, surfaces: ImpellerSurfaces) -> None:
-        profile = spec_blank_profile(surfaces.spec)
+        profile = spec_blank_profile(surfaces.spec, surfaces)
         if np.linalg.norm(profile[0] - profile[-1]) > 1e-9:
             profile = np.vstack([profile, profile[:1]])
         self.profile = profile
@@ -58,8 +60,9 @@ class Blank:
         a, b = self.profile[:-1], self.profile[1:]
         d = b - a
         dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
-        for lo in range(0, len(rz), CHUNK):
-            q = rz[lo:lo + CHUNK]
+        chunk = max(1, PAIRS // len(a))
+        for lo in range(0, len(rz), chunk):
+            q = rz[lo:lo + chunk]
             rel = q[:, None, :] - a[None]
             t = np.clip(np.einsum("nkj,kj->nk", rel, d) / dd, 0.0, 1.0)
             gap = rel - t[..., None] * d[None]
@@ -70,7 +73,7 @@ class Blank:
                 cross = a[None, :, 0] + (q[:, None, 1] - a[None, :, 1]) * d[None, :, 0] / d[
                     None, :, 1]
             inside = (np.count_nonzero(straddle & (cross > q[:, None, 0]), axis=1) % 2) == 1
-            out[lo:lo + CHUNK] = np.where(inside, 0.0, near)
+            out[lo:lo + chunk] = np.where(inside, 0.0, near)
         return out
 
     def touches(self, centres: NDArray[np.float64], radius: float) -> NDArray[np.bool_]:

@@ -1,21 +1,22 @@
-"""Deviation of a verified stock from the design, face role by face role.
+"""Deviation of a verified stock from the design, face by face, and the verdict.
 
 ``verify.json`` gives one deviation summary for the whole part. Acceptance needs it
-per region: the blades (pressure and suction sides) and the hub must be left within
-allowance + scallop (+ the verification's gouge tolerance), while faces the chain does
-not machine (back face, bore, rim, the shroud-side blade tips: turned on a lathe) keep
-the blank's stock allowance, and a ball larger than the fillet radius leaves material
-in the fillets and on the strip of hub and blade next to them. So every stock surface
-sample (a dexel end, ``Stock.surface_samples``) gets the role of its closest design
-triangle (``Impeller.triangle_roles``) and the summary is reported per role, with
-blade and hub samples split into those within ``near_fillet`` of a fillet face and
-the rest. Blade-side samples beyond the shroud envelope (the revolved shroud contour,
-``shroud_offset`` > 0) are the blank's skin over the blade tips: its nearest design
-triangle may be a blade side at the tip edge, but that material is the shroud turning's
-business, not the blade finishing's, so it is reported apart as well; so are samples
-whose closest design point lies on a tip's edge (the skin's corner, which on a leaning
-blade reaches slightly inside the envelope: 220 of nine_blade's suction-side samples,
-up to 0.29 mm inside it and up to 0.55 mm from the design).
+per face: every milled face (blade sides, hub between the blades, fillets, leading
+and trailing edges, of main blades and splitters) must be left within allowance +
+scallop (+ the verification's gouge tolerance), while the faces turned on the lathe
+(back face, bore, rim, nose, the blank's skin over the blade tips, the hub upstream
+of the leading and downstream of the trailing edge) keep the blank's stock allowance
+and are listed apart. Every stock surface sample (a dexel end,
+``Stock.surface_samples``) gets the role of its closest design triangle
+(``Impeller.triangle_roles``); ``face_groups`` splits the samples into milled and
+lathe groups: blade-side and hub samples within ``near_fillet`` of a fillet face are
+their own milled groups (a ball larger than the fillet radius cannot reach there);
+samples of a blade side or edge beyond the shroud envelope (``shroud_offset`` > 0) or
+whose closest design point lies on a tip's edge (the skin's corner, which on a
+leaning blade reaches slightly inside the envelope: 220 of nine_blade's suction-side
+samples, up to 0.29 mm inside it and up to 0.55 mm from the design) are the skin over
+the tips. ``region_summary`` reports every group and the verdict: every milled group
+within the limit, no gouge, no stock short of the design.
 """
 
 from __future__ import annotations
@@ -29,13 +30,21 @@ from scipy.spatial import cKDTree
 
 from cam.verify.deviation import Deviation
 
-__all__ = ["ACCEPTANCE_ROLES", "LabelledDesign", "closest_roles", "near_faces", "on_tip_edge",
-           "passage_position", "region_summary", "role_table", "shroud_offset"]
+__all__ = ["ACCEPTANCE_ROLES", "LATHE_ROLES", "LabelledDesign", "closest_roles", "face_groups",
+           "near_faces", "on_tip_edge", "passage_position", "region_summary", "role_table",
+           "shroud_offset"]
 
-#: Roles whose surfaces the chain machines and acceptance checks (blade sides, hub).
-ACCEPTANCE_ROLES = ("pressure", "suction", "hub")
+#: Roles whose surfaces are milled and acceptance checks: blade sides, hub (between
+#: the blades), fillets, leading and trailing edges (of main blades and splitters).
+ACCEPTANCE_ROLES = ("pressure", "suction", "hub", "fillet", "leading_edge", "trailing_edge")
 #: Blade-side roles (split off beyond the shroud envelope).
 BLADE_SIDES = ("pressure", "suction")
+#: Blade roles whose samples beyond the shroud envelope are the skin over the tips.
+TIP_SIDED = ("pressure", "suction", "leading_edge", "trailing_edge")
+#: Roles whose samples next to a fillet are reported apart as well (``_near_fillet``).
+FILLET_NEIGHBOURS = ("pressure", "suction", "hub")
+#: Faces turned on the lathe, not milled: back face, bore, rim, hub nose, blade tips.
+LATHE_ROLES = ("back", "bore", "rim", "nose", "shroud")
 #: A sample whose closest tip-face point is this close to its closest design point has
 #: its foot on the tip's edge, mm (the two faces share the edge's vertices).
 ON_EDGE = 1e-6
@@ -244,10 +253,11 @@ def role_table(distance: NDArray[np.float64], limit: float, touched: NDArray[np.
                ) -> dict[str, Any]:
     """Summary of signed deviations (mm) of one group of samples against ``limit``."""
     if len(distance) == 0:
-        return {"samples": 0}
+        return {"samples": 0, "limit_mm": limit}
     over = distance > limit
     return {
         "samples": int(len(distance)),
+        "limit_mm": limit,
         "machined_share": round(float(touched.mean()), 4),
         "max_mm": round(float(distance.max()), 4),
         "p99_mm": round(float(np.percentile(distance, 99.0)), 4),
@@ -295,9 +305,72 @@ class LabelledDesign:
         self.roles = self.face_roles[self.distance.source_face]
 
 
+def face_groups(design: LabelledDesign, points: NDArray[np.float64],
+                role: NDArray[np.str_], foot_distance: NDArray[np.float64],
+                near_fillet: float) -> tuple[dict[str, NDArray[np.bool_]],
+                                             dict[str, NDArray[np.bool_]]]:
+    """Split stock samples into milled face groups and lathe face groups.
+
+    Parameters
+    ----------
+    design : LabelledDesign
+    points : (n, 3) float64
+        Stock surface samples, mm.
+    role : (n,) str
+        Role of each sample's closest design face.
+    foot_distance : (n,) float64
+        Unsigned distance to that face, mm.
+    near_fillet : float
+        Width of the strips next to the fillets reported apart, mm.
+
+    Returns
+    -------
+    milled, lathe : dict of str to (n,) bool
+        Milled: ``pressure``, ``suction``, ``hub`` (between the blades' edges, away
+        from the fillets), their ``<role>_near_fillet`` strips, ``fillet``,
+        ``leading_edge``, ``trailing_edge``. Lathe: ``LATHE_ROLES``,
+        ``hub_outside_blades`` (the axisymmetric inlet and outlet of the hub) and
+        ``<role>_beyond_shroud`` (the blank's skin over the tips: samples of a blade
+        side or edge beyond the shroud envelope or whose closest design point is on a
+        tip's edge). Only groups with samples are listed.
+    """
+    triangles, labels = design.triangles, design.roles
+    near = np.zeros(len(points), dtype=bool)
+    checked = np.isin(role, FILLET_NEIGHBOURS)
+    near[checked] = near_faces(triangles[labels == "fillet"], points[checked], near_fillet)
+    hub = role == "hub"
+    position = passage_position(points[hub], *design.meridional)
+    between = np.zeros(len(points), dtype=bool)
+    between[hub] = (position >= 0.0) & (position <= 1.0)
+    beyond = np.zeros(len(points), dtype=bool)
+    blade = np.isin(role, TIP_SIDED)
+    hub_contour, shroud_contour = design.meridional[0], design.meridional[1]
+    beyond[blade] = shroud_offset(points[blade], shroud_contour, hub_contour) > 0.0
+    beyond[blade] |= on_tip_edge(triangles, labels, points[blade], foot_distance[blade])
+    milled: dict[str, NDArray[np.bool_]] = {}
+    lathe: dict[str, NDArray[np.bool_]] = {}
+    for name in ACCEPTANCE_ROLES:
+        sel = role == name
+        inside = sel & (between if name == "hub" else ~beyond)
+        if name in FILLET_NEIGHBOURS:
+            milled[name] = inside & ~near
+            milled[f"{name}_near_fillet"] = inside & near
+        else:
+            milled[name] = inside
+        if name == "hub":
+            lathe["hub_outside_blades"] = sel & ~between
+        elif name in TIP_SIDED:
+            lathe[f"{name}_beyond_shroud"] = sel & beyond
+    for name in sorted(set(role.tolist()) - set(ACCEPTANCE_ROLES)):
+        lathe[name] = role == name
+    return ({k: v for k, v in milled.items() if v.any()},
+            {k: v for k, v in lathe.items() if v.any()})
+
+
 def region_summary(design: LabelledDesign, stock: str | Path | Deviation, allowance: float,
-                   tolerance: float, near_fillet: float) -> dict[str, Any]:
-    """Per-role deviation of a verified stock from the spec's design.
+                   tolerance: float, near_fillet: float, lathe_allowance: float = 0.0
+                   ) -> dict[str, Any]:
+    """Per-face deviation of a verified stock from the spec's design, and the verdict.
 
     Parameters
     ----------
@@ -308,27 +381,29 @@ def region_summary(design: LabelledDesign, stock: str | Path | Deviation, allowa
         (``run_verify(..., design_distance=design.distance)`` returns it), or a stock
         state written by ``run_verify`` (``stock.npz``), whose samples are measured here.
     allowance : float
-        Material meant to remain on machined faces (allowance + scallop), mm.
+        Material meant to remain on milled faces (allowance + scallop), mm.
     tolerance : float
-        Verification tolerance added to ``allowance`` (the gouge tolerance), mm.
+        Verification tolerance added to the allowances (the gouge tolerance), mm.
     near_fillet : float
-        Blade and hub samples closer than this to a fillet face are reported apart
-        (``<role>_near_fillet``), mm: a ball of radius R > fillet radius cannot reach
-        there. Blade and hub samples upstream of the leading edge or downstream of the
-        trailing edge (``passage_position``; the inlet and outlet of the hub are
-        axisymmetric lathe work, outside the passages the chain mills) are reported
-        apart as ``<role>_outside_blades``, blade-side samples between the edges but
-        beyond the shroud envelope (``shroud_offset`` > 0: the blank's skin over the
-        tips, lathe work too) or whose closest design point is on a tip's edge (the
-        skin's corner: where a blade leans, it reaches a little inside the envelope)
-        as ``<role>_beyond_shroud``.
+        Blade and hub samples closer than this to a fillet face are reported in
+        groups of their own (``<role>_near_fillet``), mm: a ball of radius R > fillet
+        radius cannot reach there.
+    lathe_allowance : float
+        Material the lathe-turned faces keep (the blank's stock allowance), mm.
 
     Returns
     -------
     dict
-        ``limit_mm`` (allowance + tolerance), ``roles`` {role: table} (``role_table``),
-        ``acceptance`` {role: table} for blades and hub away from the fillets, and
-        ``accepted`` (all of those within the limit, none gouged).
+        ``limit_mm`` (allowance + tolerance); ``acceptance`` {group: table}
+        (``role_table``) for every milled face group (``face_groups``: blade sides,
+        hub between the blades, fillets, edges, the strips next to the fillets);
+        ``lathe`` {group: table} for the lathe-turned faces against
+        ``lathe_limit_mm`` (``lathe_allowance`` + tolerance), listed, not judged;
+        ``roles`` both together; ``gouge`` (a machined sample deeper than the
+        tolerance inside the design); ``stock_short_samples`` and
+        ``stock_short_max_mm`` (never machined samples deeper than the tolerance
+        inside the design: the blank did not contain the part there);
+        ``accepted``: every milled group within the limit, no gouge, no stock short.
     """
     if not isinstance(stock, Deviation) or stock.faces is None:
         from cam.verify.stock import Stock
@@ -341,52 +416,37 @@ def region_summary(design: LabelledDesign, stock: str | Path | Deviation, allowa
         stock = Deviation(points, signed, moves, faces)
     assert stock.faces is not None
     points, signed, moves = stock.points, stock.distance, stock.moves
-    triangles, labels = design.triangles, design.roles
     role = design.face_roles[stock.faces]
-    foot_distance = np.abs(signed)
-    checked = np.isin(role, ACCEPTANCE_ROLES)
-    near = np.zeros(len(points), dtype=bool)
-    near[checked] = near_faces(triangles[labels == "fillet"], points[checked], near_fillet)
-    position = passage_position(points, *design.meridional)
-    between = (position >= 0.0) & (position <= 1.0)
-    hub_contour, shroud_contour = design.meridional[0], design.meridional[1]
-    beyond = np.zeros(len(points), dtype=bool)
-    sides = np.isin(role, BLADE_SIDES) & between
-    beyond[sides] = shroud_offset(points[sides], shroud_contour, hub_contour) > 0.0
-    beyond[sides] |= on_tip_edge(triangles, labels, points[sides], foot_distance[sides])
+    milled, lathe = face_groups(design, points, role, np.abs(signed), near_fillet)
     limit = allowance + tolerance
+    lathe_limit = lathe_allowance + tolerance
     touched = moves >= 0
-    roles: dict[str, Any] = {}
-    for name in sorted(set(role.tolist())):
-        sel = role == name
-        if name in ACCEPTANCE_ROLES:
-            inside = sel & between & ~beyond
-            roles[name] = role_table(signed[inside & ~near], limit, touched[inside & ~near])
-            roles[f"{name}_near_fillet"] = role_table(signed[inside & near], limit,
-                                                      touched[inside & near])
-            roles[f"{name}_outside_blades"] = role_table(signed[sel & ~between], limit,
-                                                         touched[sel & ~between])
-            if name in BLADE_SIDES:
-                roles[f"{name}_beyond_shroud"] = role_table(signed[sel & beyond], limit,
-                                                            touched[sel & beyond])
-        else:
-            roles[name] = role_table(signed[sel], limit, touched[sel])
-    acceptance = {name: roles[name] for name in ACCEPTANCE_ROLES if name in roles}
-    # a gouge is material removed inside the design (as verify.json counts it); blank
-    # surfaces never machined that lie inside the design are the blank's business
+    acceptance = {name: role_table(signed[sel], limit, touched[sel])
+                  for name, sel in milled.items()}
+    turned = {name: role_table(signed[sel], lathe_limit, touched[sel])
+              for name, sel in lathe.items()}
+    # a gouge is material removed inside the design (as verify.json counts it); never
+    # machined samples inside it are stock the blank lacked (verify's stock_short)
     gouge = bool(np.any(signed[touched] < -tolerance))
     unmachined = signed[~touched]
+    short = unmachined[unmachined < -tolerance]
     return {
         "allowance_mm": allowance,
         "tolerance_mm": tolerance,
         "limit_mm": limit,
+        "lathe_allowance_mm": lathe_allowance,
+        "lathe_limit_mm": lathe_limit,
         "near_fillet_mm": near_fillet,
         "samples": int(len(points)),
         "gouge": bool(gouge),
         "min_mm": round(float(signed[touched].min()), 4) if touched.any() else None,
         "unmachined_min_mm": round(float(unmachined.min()), 4) if len(unmachined) else None,
-        "roles": roles,
+        "stock_short_samples": int(len(short)),
+        "stock_short_max_mm": round(float(-short.min()), 4) if len(short) else 0.0,
+        "roles": {**acceptance, **turned},
         "acceptance": acceptance,
-        "accepted": bool(acceptance and not gouge
-                         and all(t.get("within_limit", True) for t in acceptance.values())),
+        "lathe": turned,
+        "failed": sorted(name for name, t in acceptance.items() if not t["within_limit"]),
+        "accepted": bool(acceptance and not gouge and not len(short)
+                         and all(t["within_limit"] for t in acceptance.values())),
     }

@@ -4,13 +4,15 @@ Both runs check against the design (the spec), with the same dexel resolution, a
 are written together into ``verify/`` (all or nothing):
 
 * ``verify/rough``: the rough NC files with the roughing tool on the spec's blank;
-  allowance = finishing allowance + roughing scallop;
+  allowance = finishing allowance + roughing scallop; a blank short of the design
+  (``stock_short``: the blank cuts into the part somewhere) stops the stage with an
+  ``InputError`` before any block is run, nothing written;
 * ``verify/finish``: the finish NC files with the finishing tool starting from
   ``verify/rough/stock.npz``; allowance = finishing scallop;
 * ``verify/regions.json``: the deviation of the rough and the finished stock per face
-  role (``cam.run.regions``): the acceptance numbers (blades and hub within allowance
-  + scallop + gouge tolerance; fillet strips, the lathe-turned inlet and outlet and
-  the unmachined faces apart).
+  face group (``cam.run.regions``): the acceptance numbers (every milled face: blade
+  sides, hub, fillets, leading and trailing edges, within allowance + scallop +
+  gouge tolerance; the lathe-turned faces listed apart against the stock allowance).
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from typing import Any
 
 from cam.run.regions import LabelledDesign, region_summary
 from cam.run.stages import Context, nc_programs, read_json, rough_allowance
+from geometry.spec import load_spec
 from impeller_cam.atomic import replace_path, write_text_atomic
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
 
@@ -81,12 +84,14 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
     finish_radius = resolve_tool(ctx.settings.finish_tool).radius
     # the design is built once: both runs and the per-face summary share its distance
     design = LabelledDesign(ctx.spec)
+    lathe = float(load_spec(ctx.spec).stock_allowance)
     with _staged_folder(ctx.out / "verify") as stage:
         # the report shows the stock after the last program of each run
         rough_deviation = run_verify(
             rough, ctx.machine, ctx.settings.rough_tool, str(ctx.spec), ctx.spec, resolution,
             stage / "rough",
-            options=VerifyOptions(allowance=allow["rough"], render_each_program=False),
+            options=VerifyOptions(allowance=allow["rough"], render_each_program=False,
+                                  refuse_short_stock=True),
             progress=False, design_distance=design.distance)
         finish_deviation = run_verify(
             finish, ctx.machine, ctx.settings.finish_tool, str(stage / "rough" / "stock.npz"),
@@ -96,14 +101,14 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
         assert rough_deviation is not None and finish_deviation is not None
         _relocate(stage / "finish", str(ctx.out / "verify" / "rough" / "stock.npz"))
         regions = {
-            "format": "impeller-cam regions 1",
+            "format": "impeller-cam regions 2",
             "resolution_mm": resolution,
             "finish_ball_radius_mm": finish_radius,
             "rough_allowance_mm": allow["rough"],
             "rough": region_summary(design, rough_deviation, allow["rough"], tolerance,
-                                    finish_radius),
+                                    finish_radius, lathe),
             "finish": region_summary(design, finish_deviation, allow["finish"], tolerance,
-                                     finish_radius),
+                                     finish_radius, lathe),
         }
         write_text_atomic(stage / "regions.json", json.dumps(regions, indent=2) + "\n")
     return regions

@@ -61,6 +61,10 @@ class VerifyOptions:
     render_each_program : bool
         Render the stock after every program (else only after the last one: a chain
         with dozens of roughing programs shows the last state only).
+    refuse_short_stock : bool
+        Raise ``InputError`` (nothing written) when the initial stock is short of the
+        design (``stock_short`` events) instead of reporting it: the chain verifying
+        its own blank.
     """
 
     sweep_tolerance: float | None = None
@@ -69,6 +73,7 @@ class VerifyOptions:
     allowance: float | None = None
     render: bool = True
     render_each_program: bool = True
+    refuse_short_stock: bool = False
 
 
 
@@ -174,6 +179,30 @@ def _deviation_events(
     return events
 
 
+def _short_stock(work: Stock, distance: DesignDistance, opts: VerifyOptions, program: str,
+                 stock: str) -> list[Event]:
+    """``stock_short`` events of the initial stock (``cam.verify.shortfall``); with
+    ``opts.refuse_short_stock`` an ``InputError`` naming the deepest place instead."""
+    from cam.verify.shortfall import below_design_top, stock_short_events
+
+    points, _, moves = work.surface_samples()
+    maybe = below_design_top(points, distance.triangles)
+    signed, _ = distance.closest(points[maybe])
+    found = stock_short_events(points[maybe], signed, moves[maybe], opts.gouge_tolerance,
+                               program)
+    if found and opts.refuse_short_stock:
+        deepest = found[0]
+        where = ", ".join(f"{v:.2f}" for v in deepest.position)
+        raise InputError(
+            f"the stock does not contain the design: short at {len(found)} place(s), up to "
+            f"{deepest.amount:.3f} mm inside the part (deepest at x, y, z = {where} mm); "
+            "no program can put that material back",
+            field="stock", value=stock,
+            accepted="a stock that contains the design (a spec's blank: "
+                     "geometry.blank.spec_blank_profile)")
+    return found
+
+
 def _cap(events: list[Event]) -> tuple[list[Event], dict[str, int]]:
     """Keep the largest MAX_EVENTS_PER_TYPE events per program and type."""
     counts: dict[str, int] = {t: 0 for t in EVENT_TYPES}
@@ -256,8 +285,16 @@ def run_verify(
     work = load_stock(stock, resolution)
     sweep_tol = opts.sweep_tolerance or 0.1 * work.pitch
     initial = work.volume()
+    distance: DesignDistance | None = design_distance
+    spec_allowance: float | None = None
+    if design_mesh is not None:
+        distance = DesignDistance(design_mesh[0], design_mesh[1])
+        spec_allowance = design_mesh[2]
 
     events: list[Event] = []
+    if distance is not None and not str(stock).lower().endswith(".npz"):
+        # a saved state was checked when its own initial stock was
+        events.extend(_short_stock(work, distance, opts, programs[0].name, stock))
     owners: list[tuple[str, int]] = list(work.owners)  # blocks of earlier runs first
     summaries: list[dict[str, Any]] = []
     images: list[tuple[str, bytes]] = []
@@ -296,13 +333,7 @@ def run_verify(
 
     deviation_summary: dict[str, Any] = {}
     deviation: Deviation | None = None
-    if design_mesh is not None or design_distance is not None:
-        if design_mesh is not None:
-            vertices, faces, spec_allowance = design_mesh
-            distance = DesignDistance(vertices, faces)
-        else:
-            assert design_distance is not None
-            distance, spec_allowance = design_distance, None
+    if distance is not None:
         allowance = opts.allowance if opts.allowance is not None else (spec_allowance or 0.0)
         points, _, moves_of = work.surface_samples()
         signed, closest_face = distance.closest(points)

@@ -13,6 +13,7 @@ import numpy as np
 
 #: The event types, in report order.
 EVENT_TYPES: tuple[str, ...] = (
+    "stock_short",
     "rapid_in_stock",
     "holder_collision",
     "gouge",
@@ -31,13 +32,15 @@ class Event:
         One of ``EVENT_TYPES``.
     line : int
         1-based line of the block in its NC file (0: not tied to a block, e.g. excess
-        material on a surface no block touched).
+        material on a surface no block touched, or stock short of the design before
+        the first block).
     program : str
         NC file name.
     position : tuple of float
         Where, mm, workpiece frame (tool tip at the block end, or the deepest point).
     amount : float
-        Size of the finding: mm of depth (gouge, excess, rapid cut, holder overlap) or
+        Size of the finding: mm of depth (gouge, excess, rapid cut, holder overlap,
+        stock inside the design) or
         how far past the limit (overtravel, mm or deg).
     message : str
         One human-readable sentence.

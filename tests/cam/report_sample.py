@@ -70,7 +70,7 @@ def verify_json(events: list[dict[str, Any]], counts: dict[str, int],
         "programs": [{"name": "finish_hub.ngc", "blocks": 4}], "tool": "ball4",
         "initial_volume_mm3": 5000.25, "removed_volume_mm3": 1234.5,
         "remaining_volume_mm3": 3765.75, "resolution_mm": 0.25, "gouge_tolerance_mm": 0.02,
-        "event_counts": {"rapid_in_stock": 0, "holder_collision": 0, "gouge": 0,
+        "event_counts": {"stock_short": 0, "rapid_in_stock": 0, "holder_collision": 0, "gouge": 0,
                          "overtravel": 0, "excess": 0, **counts},
         "events": events,
         "deviation": {"samples": 1000, "min_mm": -0.0123, "max_mm": max_mm,
@@ -88,15 +88,21 @@ def regions_json(hub_max: float) -> dict[str, Any]:
     """verify/regions.json: finish limit 0.82 mm (allowance 0.8 + tolerance 0.02)."""
     def summary(allowance: float, hub: float) -> dict[str, Any]:
         limit = allowance + 0.02
-        roles = {"back": region_table(2.5, limit), "hub": region_table(hub, limit),
-                 "hub_near_fillet": region_table(1.7531, limit),
-                 "pressure": region_table(0.3456, limit), "suction": region_table(0.2345, limit)}
-        acceptance = {k: roles[k] for k in ("pressure", "suction", "hub")}
+        lathe_limit = 1.0 + 0.02
+        milled = {"hub": region_table(hub, limit), "hub_near_fillet": region_table(0.5, limit),
+                  "pressure": region_table(0.3456, limit),
+                  "suction": region_table(0.2345, limit)}
+        lathe = {"back": region_table(0.5, lathe_limit),
+                 "hub_outside_blades": region_table(1.7531, lathe_limit)}
+        accepted = all(t["within_limit"] for t in milled.values())
         return {"allowance_mm": allowance, "tolerance_mm": 0.02, "limit_mm": limit,
+                "lathe_allowance_mm": 1.0, "lathe_limit_mm": lathe_limit,
                 "near_fillet_mm": 2.0, "samples": 2500, "gouge": False, "min_mm": -0.01,
-                "roles": roles, "acceptance": acceptance,
-                "accepted": all(t["within_limit"] for t in acceptance.values())}
-    return {"format": "impeller-cam regions 1", "resolution_mm": 0.25,
+                "stock_short_samples": 0, "stock_short_max_mm": 0.0,
+                "roles": {**milled, **lathe}, "acceptance": milled, "lathe": lathe,
+                "failed": sorted(k for k, t in milled.items() if not t["within_limit"]),
+                "accepted": accepted}
+    return {"format": "impeller-cam regions 2", "resolution_mm": 0.25,
             "finish_ball_radius_mm": 2.0, "rough": summary(1.3, 1.0),
             "finish": summary(0.8, hub_max)}
 

@@ -171,13 +171,13 @@ def test_summary_checks_pass_fail(tmp_path: Path) -> None:
     assert checks["No gouge"][0] is False
     assert "1 gouge event (rough 0, finish 1)" in checks["No gouge"][1]
     assert checks["No over-travel"][0] is True
-    excess = checks["Material left within allowance + scallop"]
+    excess = checks["Every milled face within allowance + scallop"]
     assert excess[0] is True  # hub 0.41 <= 0.8 + 0.02
     assert "hub 0.41 mm" in excess[1] and "limit 0.820 mm" in excess[1]
     out2 = write_sample(tmp_path / "out2", finish_events=[], max_mm=1.2)
     checks2 = {name: passed for name, passed, _ in summary_checks(RunFolder(out2))}
     assert checks2["No gouge"] is True
-    assert checks2["Material left within allowance + scallop"] is False
+    assert checks2["Every milled face within allowance + scallop"] is False
 
 
 def test_excess_check_without_regions(tmp_path: Path) -> None:
@@ -187,7 +187,7 @@ def test_excess_check_without_regions(tmp_path: Path) -> None:
     (out / "verify/regions.json").unlink()
     checks = {name: (passed, detail) for name, passed, detail in
               summary_checks(RunFolder(out))}
-    passed, detail = checks["Material left within allowance + scallop"]
+    passed, detail = checks["Every milled face within allowance + scallop"]
     assert passed is False and "1 excess events" in detail
     assert "verify/regions.json is missing" in detail
     deviation = sections_of(report_html(out, render=False))["deviation"]
@@ -198,13 +198,14 @@ def test_region_tables(sample: Path) -> None:
     deviation = plain(sections_of(report_html(sample, render=False))["deviation"])
     assert "After finishing, per face: limit 0.820 mm = allowance 0.800" in deviation
     assert "hub_near_fillet" in deviation and "1.753" in deviation and "98.8" in deviation
+    assert "hub_outside_blades lathe" in deviation and "hub_near_fillet milled" in deviation
 
 
 def test_summary_verdict(tmp_path: Path) -> None:
     failing = sections_of(report_html(write_sample(tmp_path / "a"), render=False))
-    assert "Verification: 1 of 5 checks failed" in failing["summary"]
+    assert "Verification: 1 of 6 checks failed" in failing["summary"]
     clean = write_sample(tmp_path / "b", finish_events=[])
-    assert "Verification: all 5 checks passed" in \
+    assert "Verification: all 6 checks passed" in \
         sections_of(report_html(clean, render=False))["summary"]
     assert "total" in plain(sections_of(report_html(clean, render=False))["summary"])
 
@@ -218,7 +219,7 @@ def test_summary_not_checked_without_inputs(sample: Path) -> None:
     assert checks["No over-travel"][0] is None
     assert "verify/rough/verify.json is missing" in checks["No over-travel"][1]
     assert checks["No gouge"][0] is None
-    assert checks["Material left within allowance + scallop"][0] is None
+    assert checks["Every milled face within allowance + scallop"][0] is None
 
 
 def test_unreadable_inputs_are_reported(sample: Path) -> None:

@@ -165,8 +165,9 @@ def test_finished_blades_and_hub_mostly_within_allowance_and_scallop(chain_small
                                                                      ) -> None:
     """Between the blades' edges and away from the fillets, 99 % of the blade and hub
     samples keep at most scallop + 0.05 mm (gouge tolerance) after finishing; the
-    fillets (R 1 mm < ball R 2 mm), the lathe-turned inlet/outlet and the unmachined
-    faces are reported apart."""
+    strips next to the fillets, the fillets and the edges are milled faces of their
+    own, the lathe-turned faces (inlet/outlet of the hub, back, bore, rim, tips)
+    are listed apart."""
     regions = load(chain_small, "verify/regions.json")
     finish = regions["finish"]
     assert finish["allowance_mm"] == pytest.approx(CHAIN_SETTINGS["finish"]["scallop_mm"])
@@ -177,18 +178,28 @@ def test_finished_blades_and_hub_mostly_within_allowance_and_scallop(chain_small
         assert table["machined_share"] > 0.99, (role, table)
         assert table["p99_mm"] <= finish["limit_mm"], (role, table)
         assert table["over_limit_share"] < 0.01, (role, table)
-        for part in ("near_fillet", "outside_blades"):
-            assert f"{role}_{part}" in finish["roles"]
+        assert f"{role}_near_fillet" in finish["acceptance"]
+    assert {"fillet", "leading_edge", "trailing_edge"} <= set(finish["acceptance"])
+    assert "hub_outside_blades" in finish["lathe"] and "back" in finish["lathe"]
+    assert not set(finish["lathe"]) & set(finish["acceptance"])
     # a 2 mm ball leaves material in a 1 mm fillet: reported, not hidden
     assert finish["roles"]["fillet"]["max_mm"] > 0.0
     assert regions["rough_allowance_mm"] == pytest.approx(
         0.3 + CHAIN_SETTINGS["rough"]["scallop_mm"])
 
 
-def test_finished_blades_and_hub_entirely_within_allowance_and_scallop(chain_small: Path
-                                                                       ) -> None:
+def test_the_verdict_covers_every_milled_face(chain_small: Path) -> None:
+    """Accepted only when every milled face group is within the limit, nothing is
+    gouged and no stock is short; the blank contains the design (no stock_short)."""
     finish = load(chain_small, "verify/regions.json")["finish"]
-    assert finish["accepted"], {r: t["max_mm"] for r, t in finish["acceptance"].items()}
+    within = all(t["within_limit"] for t in finish["acceptance"].values())
+    assert finish["accepted"] == (within and not finish["gouge"]
+                                  and finish["stock_short_samples"] == 0)
+    assert finish["failed"] == sorted(r for r, t in finish["acceptance"].items()
+                                      if not t["within_limit"])
+    assert finish["stock_short_samples"] == 0
+    counts = load(chain_small, "verify/rough/verify.json")["event_counts"]
+    assert counts["stock_short"] == 0
 
 
 def test_motion_json(chain_small: Path) -> None:
@@ -258,6 +269,33 @@ def test_a_stage_without_its_inputs_names_the_stage_to_run(tmp_path: Path,
     assert code == 2
     err = capsys.readouterr().err
     assert "rough" in err and "run the rough stage first" in err
+
+
+def test_a_short_blank_stops_the_verify_stage(chain_small: Path, tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    """The chain verifies its own blank before the first block: a blank 5 % too
+    narrow (about 1 mm short at the rim and 0.8 mm at the trailing edges) fails the
+    verify stage with exit code 2 and one message; verify/ keeps its earlier files."""
+    import cam.verify.sources as sources
+
+    out = copy_of(chain_small, tmp_path)
+    before = (out / "verify" / "regions.json").read_bytes()
+    real = sources.spec_blank_profile
+
+    def narrow(spec, surfaces=None):  # type: ignore[no-untyped-def]
+        return real(spec, surfaces) * [0.95, 1.0]
+
+    monkeypatch.setattr(sources, "spec_blank_profile", narrow)
+    code = main(["run", str(SMALL_SPEC), "-m", str(CHAIN_MACHINE), "-o", str(out),
+                 "--rough-tool", "ball6", "--finish-tool", "ball4_taper",
+                 "--stage", "verify", "--resolution", "1.0"])
+    assert code == 2
+    assert "does not contain the design" in capsys.readouterr().err
+    stages = {s["name"]: s for s in load(out, "run.json")["stages"]}
+    assert stages["verify"]["status"] == "failed"
+    assert "does not contain the design" in stages["verify"]["error"]
+    assert (out / "verify" / "regions.json").read_bytes() == before
 
 
 def test_rerun_of_verify_replaces_its_nested_folder(chain_small: Path, tmp_path: Path

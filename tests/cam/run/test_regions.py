@@ -58,3 +58,49 @@ def test_samples_whose_closest_point_is_a_tip_edge() -> None:
     assert distance == pytest.approx([0.5, 0.5, np.hypot(0.5, 0.3), 0.2])
     assert list(role[:2]) == ["suction", "suction"]
     assert list(on_tip_edge(triangles, roles, points, distance)) == [False, False, True, True]
+
+
+def _flat_design() -> object:
+    """A stand-in for ``LabelledDesign``: hub z = 0 and shroud z = 10 (r 0..40), the
+    blades' edges at r = 10 and r = 30 on both, no fillet or tip triangles."""
+    from types import SimpleNamespace
+
+    hub = np.array([[0.0, 0.0], [0.0, 40.0]])
+    shroud = np.array([[10.0, 0.0], [10.0, 40.0]])
+    edges_h = np.array([[0.0, 10.0], [0.0, 30.0]])
+    edges_s = np.array([[10.0, 10.0], [10.0, 30.0]])
+    return SimpleNamespace(
+        meridional=(hub, shroud, edges_h, edges_s), triangles=np.zeros((0, 3, 3)),
+        roles=np.zeros(0, dtype="<U13"),
+        face_roles=np.array(["hub", "pressure", "leading_edge", "back"]))
+
+
+def test_the_verdict_covers_every_milled_face_and_lists_lathe_faces_apart() -> None:
+    from cam.run.regions import region_summary
+    from cam.verify.deviation import Deviation
+
+    design = _flat_design()
+    points = np.array([point(0.1, 20.0), point(0.1, 35.0), point(5.0, 20.0),
+                       point(11.0, 20.0), point(5.0, 10.0), point(-0.0, 20.0)])
+    faces = np.array([0, 0, 1, 1, 2, 3])  # hub, hub, pressure, pressure, LE, back
+    moves = np.array([3, 3, 4, 4, -1, -1])
+    signed = np.array([0.1, 1.0, 0.1, 1.5, 0.9, 0.0])
+
+    def summary(signed: np.ndarray) -> dict:
+        return region_summary(design, Deviation(points, signed, moves, faces),  # type: ignore[arg-type]
+                              0.2, 0.05, 2.0, lathe_allowance=2.0)
+
+    found = summary(signed)
+    assert set(found["acceptance"]) == {"hub", "pressure", "leading_edge"}
+    assert set(found["lathe"]) == {"hub_outside_blades", "pressure_beyond_shroud", "back"}
+    assert found["failed"] == ["leading_edge"] and not found["accepted"]
+    assert found["lathe"]["hub_outside_blades"]["within_limit"]  # 1.0 <= 2.05
+    assert found["roles"].keys() == found["acceptance"].keys() | found["lathe"].keys()
+    finished = signed.copy()
+    finished[4] = 0.1
+    assert summary(finished)["accepted"]
+    short = finished.copy()
+    short[5] = -0.2  # the back face, never machined, 0.2 mm inside the design
+    result = summary(short)
+    assert result["stock_short_samples"] == 1 and result["stock_short_max_mm"] == 0.2
+    assert not result["accepted"] and result["failed"] == []
