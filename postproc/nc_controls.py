@@ -51,12 +51,16 @@ class Canon:
         M codes (``428``/``429`` for tool-centre-point on / off).
     vector : tuple of float or None
         Tool-direction vector of the block (workpiece frame), when programmed.
+    frame : tuple or None
+        A tilted frame set on this line: ``("axial", a, c)`` (rotary positions, deg)
+        or ``("spatial", spa, spb, spc)`` (spatial angles, deg); ``("reset",)`` ends it.
     """
 
     g: list[str] = field(default_factory=list)
     words: dict[str, str] = field(default_factory=dict)
     m: list[int] = field(default_factory=list)
     vector: tuple[float, float, float] | None = None
+    frame: tuple[Any, ...] | None = None
 
     def text(self) -> str:
         """The RS274 line (axis words in X Y Z A C order for the reader's fast path)."""
@@ -107,6 +111,7 @@ def emit_rs274(canons: list[Canon | None], source: str, machine: Machine | None)
         Vectors without a machine, or vector blocks programmed incrementally.
     """
     position = {letter: 0.0 for letter in "XYZAC"}
+    tilted = _Tilted(machine, source)
     run: list[int] = []
     tips: list[tuple[float, float, float]] = []
     incremental = False
@@ -133,6 +138,13 @@ def emit_rs274(canons: list[Canon | None], source: str, machine: Machine | None)
             incremental = True
         elif "G90" in entry.g:
             incremental = False
+        if entry.frame is not None or tilted.active:
+            close_run()
+            tilted.apply(entry, index + 1, incremental, (position["A"], position["C"]))
+            for letter in "XYZAC":
+                if letter in entry.words:
+                    position[letter] = float(entry.words[letter])
+            continue
         if entry.vector is not None and ("A" in entry.words or "C" in entry.words):
             raise refuse(source, index + 1, "a block with both rotary positions and a tool "
                          "vector", "A3/TX", entry.text(), "rotary positions or a vector")
@@ -192,3 +204,79 @@ def translate(text: str, dialect: str, source: str, machine: Machine | None) -> 
     lines = text.split("\n")
     canons = (sinumerik_canons if dialect == "sinumerik" else heidenhain_canons)(lines, source)
     return emit_rs274(canons, source, machine)
+
+
+class _Tilted:
+    """The tilted frame in force (Sinumerik CYCLE800, Heidenhain PLANE) while translating.
+
+    Blocks in the frame program the tip in frame coordinates ``p'``; they are written
+    as tool-centre-point blocks (the reader's ``M428``): X, Y, Z the world tip
+    ``R p'`` (plus the world offset of W), A, C the frame's rotary positions.
+    """
+
+    def __init__(self, machine: Machine | None, source: str) -> None:
+        self.machine = machine
+        self.source = source
+        self.active = False
+        self.rotation = np.eye(3)
+        self.rotary = (0.0, 0.0)
+        self.point = np.full(3, np.nan)  # p' in force
+        self.offset = np.zeros(3)  # world position of the workpiece zero
+
+    def apply(self, entry: Canon, line: int, incremental: bool,
+              rotary_before: tuple[float, float]) -> None:
+        frame = entry.frame
+        if frame is not None and frame[0] == "reset":
+            if not self.active:
+                entry.frame = None
+                return
+            self.active = False
+            entry.m.append(TCP_OFF_M)
+            return
+        if frame is not None:
+            self.start(frame, line, rotary_before)
+            entry.m.append(TCP_ON_M)
+        bad = [k for k in ("A", "C") if k in entry.words] + (
+            ["vector"] if entry.vector is not None else []) + (
+            ["G91"] if incremental else []) + [f"M{m}" for m in entry.m
+                                               if m in (TCP_ON_M, TCP_OFF_M) and frame is None]
+        if bad:
+            raise refuse(self.source, line, "rotary words, vectors, incremental moves or TCP "
+                         "switches inside a tilted frame are not supported", "word", bad[0],
+                         "X Y Z moves in the tilted frame, then the frame reset")
+        moved = [k for k in "XYZ" if k in entry.words]
+        if not moved:
+            return
+        for j, letter in enumerate("XYZ"):
+            if letter in entry.words:
+                self.point[j] = float(entry.words[letter])
+        if not np.isfinite(self.point).all():
+            raise refuse(self.source, line, "the first move in a tilted frame must program X, "
+                         "Y and Z", "word", moved, "X.. Y.. Z.. after CYCLE800 / PLANE")
+        world = self.rotation @ self.point + self.offset
+        for j, letter in enumerate("XYZ"):
+            entry.words[letter] = number_text(world[j])
+        entry.words["A"] = number_text(self.rotary[0])
+        entry.words["C"] = number_text(self.rotary[1])
+
+    def start(self, frame: tuple[Any, ...], line: int, before: tuple[float, float]) -> None:
+        from postproc.kinematics import kinematics_for
+        from postproc.posts.frames import frame_rotation, rotation_from_spatial
+
+        if self.machine is None:
+            raise refuse(self.source, line, "tilted frames need the machine's kinematics to "
+                         "be read", "frame", frame[0], "read the program with the machine "
+                         "(impeller-cam verify -m)")
+        kins: Any = kinematics_for(self.machine)
+        self.offset = np.asarray(kins.world_from_workpiece(np.zeros((1, 3))))[0]
+        if frame[0] == "axial":
+            self.rotary = (float(frame[1]), float(frame[2]))
+            self.rotation = frame_rotation(kins, np.radians([self.rotary]))[0]
+        else:
+            self.rotation = rotation_from_spatial(np.array(frame[1:4], dtype=np.float64))
+            axis = self.rotation @ np.array([0.0, 0.0, 1.0])
+            joints = vector_joints(self.machine, np.zeros((1, 3)), axis[None, :], before,
+                                   self.source, line)[0]
+            self.rotary = (float(joints[0]), float(joints[1]))
+        self.active = True
+        self.point = np.full(3, np.nan)

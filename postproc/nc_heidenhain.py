@@ -9,7 +9,9 @@ AXIS|VECTOR`` and ``FUNCTION RESET TCPM``, ``L`` blocks with ``X Y Z A C``, ``R0
 on/off, ``M91``: machine coordinates), ``LN`` blocks with tool vectors ``TX TY TZ``,
 ``STOP``. Refused with a message: ``LBL`` / ``CALL LBL`` repeats and subprograms,
 ``Q`` parameters and ``FN``, arcs and approach/departure (``CC C CR CT RND CHF APPR
-DEP``), radius compensation ``RL``/``RR``, incremental ``IX..``, ``PLANE`` frames,
+DEP``), radius compensation ``RL``/``RR``, incremental ``IX..``, ``PLANE`` other than
+``SPATIAL`` / ``AXIAL`` / ``RESET`` (3+2 frames: the rotary axes are taken at the frame's
+positions, ``TURN``/``STAY`` alike),
 ``FUNCTION TCPM ... AXIS SPAT``, other cycles, 3-D compensation ``NX NY NZ``.
 """
 
@@ -33,7 +35,6 @@ _REFUSED = {
     "CP": "helices are not supported", "RND": "roundings are not supported",
     "CHF": "chamfers are not supported", "APPR": "approach contours are not supported",
     "DEP": "departure contours are not supported",
-    "PLANE": "PLANE tilted working planes are not read",
     "CYCL": "cycles other than CYCL DEF 32 are not supported",
 }
 
@@ -86,6 +87,32 @@ def _l_block(words: list[str], line: int, source: str, vector_block: bool) -> Ca
     if any(k in canon.words for k in "XYZABC") or canon.vector is not None:
         canon.g.insert(0, "G0" if rapid else "G1")
     return canon
+
+
+def _plane(words: list[str], line: int, source: str, text: str) -> tuple[object, ...]:
+    """``PLANE RESET``, ``PLANE SPATIAL SPA SPB SPC``, ``PLANE AXIAL A C`` (+ TURN/STAY)."""
+    accepted = "PLANE SPATIAL SPA.. SPB.. SPC.., PLANE AXIAL A.. C.., PLANE RESET"
+    if not words or words[0] not in ("RESET", "SPATIAL", "AXIAL"):
+        raise refuse(source, line, "this PLANE function is not supported", "PLANE", text[:40],
+                     accepted)
+    if words[0] == "RESET":
+        return ("reset",)
+    names = ("SPA", "SPB", "SPC") if words[0] == "SPATIAL" else ("A", "C")
+    values: dict[str, float] = {}
+    for word in words[1:]:
+        match = _WORD.match(word)
+        if match and match.group(1) in names and match.group(2) is not None:
+            values[match.group(1)] = float(match.group(2))
+        elif word in ("TURN", "MOVE", "STAY", "MB", "MAX", "FMAX", "MB0", "SEQ+", "SEQ-",
+                      "SYM+", "SYM-", "TABLE", "ROT", "COORD") or re.fullmatch(
+                          r"(MB|F|DIST)\+?\d*\.?\d*", word):
+            continue
+        else:
+            raise refuse(source, line, "unknown PLANE word", "PLANE", word, accepted)
+    if words[0] == "SPATIAL":
+        return ("spatial", values.get("SPA", 0.0), values.get("SPB", 0.0),
+                values.get("SPC", 0.0))
+    return ("axial", values.get("A", 0.0), values.get("C", 0.0))
 
 
 def _tool_call(rest: list[str], line: int, source: str) -> Canon:
@@ -148,6 +175,8 @@ def heidenhain_canons(text_lines: list[str], source: str) -> list[Canon | None]:
             canon = _tool_call(words[2:], line, source)
         elif code.startswith("CYCL DEF 32"):
             canon = None
+        elif head == "PLANE":
+            canon = Canon(frame=_plane(words[1:], line, source, text))
         elif code.startswith("FUNCTION RESET TCPM"):
             canon = Canon(m=[TCP_OFF_M])
         elif code.startswith("FUNCTION TCPM"):

@@ -9,7 +9,9 @@ exact stop ``G60 G64 G641 G642 G645 G9`` (no path meaning here), ``X Y Z`` and `
 ``ORIWKS ORIAXES ORIVECT SOFT BRISK FFWON FFWOF UPATH SPATH COMPCAD COMPCURV COMPOF
 G4``, ``CYCLE832(...)``, ``MSG(...)``. Refused with a message: arithmetic and
 parameters (``R1=``, ``IC()``, ``DC()``), program flow (``GOTOF``, ``REPEAT``, labels),
-frames (``TRANS``, ``ROT``, ``CYCLE800``), ``ORIMKS`` and other cycles.
+frames (``TRANS``, ``ROT``), ``CYCLE800`` other than the direct rotary-axis swivel the
+post writes (``_MODE`` 192, no offsets; ``CYCLE800()`` resets it), ``ORIMKS`` and other
+cycles.
 """
 
 from __future__ import annotations
@@ -113,10 +115,10 @@ class SinumerikLines:
             name = match.group("call")
             if name == "TRAORI":
                 canon.m.append(TCP_ON_M)
+            elif name == "CYCLE800":
+                canon.frame = self.swivel(match.group("args"), raw, line)
             elif name not in _CALLS_SILENT:
-                what = ("swivel frames (CYCLE800) are not read yet" if name == "CYCLE800"
-                        else f"{name}(...) is not supported")
-                raise refuse(src, line, what, name, raw, _ACCEPTED)
+                raise refuse(src, line, f"{name}(...) is not supported", name, raw, _ACCEPTED)
         elif match.group("letter"):
             self.word(canon, match.group("letter"), match.group("num"), line)
         else:
@@ -130,6 +132,24 @@ class SinumerikLines:
                     keyword, f"{keyword} (program flow, frames or an unknown keyword)")
                 raise refuse(src, line, f"{what} is not supported", "word", keyword,
                              _ACCEPTED)
+
+    def swivel(self, args: str, raw: str, line: int) -> tuple[object, ...]:
+        """``CYCLE800()`` (reset) or the direct rotary-axis form the post writes."""
+        values = [a.strip() for a in args.split(",")] if args.strip() else []
+        if not values:
+            return ("reset",)
+        accepted = ('CYCLE800(_FR,"TC",0,192,0,0,0,<axis 1>,<axis 2>,0,0,0,0,_DIR,_FR_I,'
+                    '_DMODE): rotary axes direct, no offsets; CYCLE800() to reset')
+        try:
+            numbers = [float(v) if v and not v.startswith('"') else 0.0 for v in values]
+        except ValueError:
+            raise refuse(self.source, line, "CYCLE800 with expressions", "CYCLE800", raw,
+                         accepted) from None
+        if len(numbers) < 10 or numbers[2] != 0 or numbers[3] != 192 or any(
+                numbers[k] != 0 for k in (4, 5, 6, 10, 11, 12) if k < len(numbers)):
+            raise refuse(self.source, line, "only the direct rotary-axis swivel (_MODE 192, "
+                         "new plane, no offsets) is read", "CYCLE800", raw, accepted)
+        return ("axial", numbers[7], numbers[8])
 
     def word(self, canon: Canon, letter: str, number: str, line: int) -> None:
         """A plain ``letter number`` word."""
@@ -172,7 +192,7 @@ def sinumerik_canons(text_lines: list[str], source: str) -> list[Canon | None]:
         if canon is not None:
             if "G4-dwell" in canon.g:
                 canon.g = [g for g in canon.g if g != "G4-dwell"]
-            if canon.g or canon.words or canon.m or canon.vector:
+            if canon.g or canon.words or canon.m or canon.vector or canon.frame:
                 out.append(canon)
                 continue
         out.append(None)

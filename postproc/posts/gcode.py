@@ -33,6 +33,7 @@ from postproc.program import FeedMode, Motion
 if TYPE_CHECKING:
     from postproc.posting import OperationInfo, PostedProgram
     from postproc.posts.base import PostOptions
+    from postproc.posts.frames import Swivel
 
 #: Word letters of the five joint columns.
 AXIS_LETTERS = ("X", "Y", "Z", "A", "C")
@@ -53,6 +54,7 @@ class _State:
     coolant: bool = False
     tool: int | None = None
     vector: tuple[int, int, int] | None = None  # tool-direction words (vector dialects)
+    frame: int = -1  # active tilted frame (3+2), -1: none
 
     def forget_position(self, columns: tuple[int, ...] = (0, 1, 2, 3, 4)) -> None:
         for j in columns:
@@ -73,14 +75,17 @@ class _Words:
 
     @classmethod
     def of(cls, program: PostedProgram, options: PostOptions,
-           feeds: tuple[NDArray[np.int16], NDArray[np.float64]] | None = None) -> _Words:
-        """Quantise the program's words; ``feeds`` replaces its (feed mode, F) columns."""
-        values = program.blocks.joints.copy()
+           feeds: tuple[NDArray[np.int16], NDArray[np.float64]] | None = None,
+           swivel: Swivel | None = None) -> _Words:
+        """Quantise the program's words; ``feeds`` replaces its (feed mode, F) columns,
+        ``swivel`` its words in the 3+2 segments (frame coordinates)."""
+        values = (program.blocks.joints if swivel is None else swivel.words).copy()
+        present = program.present if swivel is None else swivel.present
         values[:, 3:] = np.degrees(values[:, 3:])
         finite = np.isfinite(values)
         quantised = quantise(np.where(finite, values, 0.0).ravel(), options.decimals)
         mode, f = (program.blocks.feed_mode, program.blocks.feed) if feeds is None else feeds
-        return cls(program, quantised.reshape(-1, 5), program.present & finite,
+        return cls(program, quantised.reshape(-1, 5), present & finite,
                    quantise(np.where(np.isfinite(f), f, 0.0), options.feed_decimals),
                    np.asarray(mode, dtype=np.int16))
 
@@ -151,6 +156,18 @@ class GCodeWriter:
         """(feed mode, F) per block when the dialect writes other feeds; None: as posted."""
         return None
 
+    def swivel(self, program: PostedProgram, options: PostOptions) -> Swivel | None:
+        """3+2 segments to write in tilted frames (``postproc.posts.frames``); None: none."""
+        return None
+
+    def frame_on(self, swivel: Swivel, frame: int, options: PostOptions) -> list[str]:
+        """Lines that activate tilted frame ``frame`` (rotary axes already there)."""
+        raise NotImplementedError
+
+    def frame_off(self) -> list[str]:
+        """Lines that cancel the tilted frame."""
+        raise NotImplementedError
+
     # ------------------------------------------------------------ shared text
     def comment(self, text: object) -> str:
         """A sanitised comment line."""
@@ -190,7 +207,10 @@ class GCodeWriter:
             out.append(line.encode("ascii") + b"\n")
         self._lines(out, self.header(program, options) + self.preamble(program, options))
         state = _State()
-        words = _Words.of(program, options, self.feed_words(program, options))
+        swivel = self.swivel(program, options)
+        words = _Words.of(program, options, self.feed_words(program, options), swivel)
+        frame = np.full(len(program), -1) if swivel is None else swivel.frame
+        tcp = program.blocks.tcp & (frame < 0)
         bounds = [op.first_block for op in program.operations] + [len(program)]
         for k, op in enumerate(program.operations):
             start, stop = bounds[k], bounds[k + 1]
@@ -199,7 +219,7 @@ class GCodeWriter:
             if op.tool_change:
                 active = op.tool_number if state.tool is None else state.tool
                 lines, prefix = self._switch_tcp(state, False, active)
-                self._lines(out, lines)
+                self._lines(out, self._leave_frame(state) + lines)
                 if start < stop and program.role[start] == _role_retract():
                     self._run(out, words, state, start, start + 1, prefix, options)
                     prefix = ""
@@ -209,22 +229,28 @@ class GCodeWriter:
                 state.forget_position((2,))
             self._lines(out, self._spindle_coolant(state, op, options))
             self._lines(out, self.operation_start(program, k, options))
-            # runs of one TCP state
-            tcp = program.blocks.tcp
-            edges = [start] + [int(i) for i in np.flatnonzero(tcp[start + 1:stop]
-                                                               != tcp[start:stop - 1]) + start + 1]
-            edges.append(stop)
+            # runs of one TCP state and one frame
+            change = (tcp[start + 1:stop] != tcp[start:stop - 1]) | (
+                frame[start + 1:stop] != frame[start:stop - 1])
+            edges = [start] + [int(i) for i in np.flatnonzero(change) + start + 1] + [stop]
             for a, b in zip(edges[:-1], edges[1:], strict=True):
                 if a >= b:
                     continue
-                lines, switch_prefix = self._switch_tcp(state, bool(tcp[a]), op.tool_number)
+                lines = self._leave_frame(state) if state.frame != frame[a] else []
+                tcp_lines, switch_prefix = self._switch_tcp(state, bool(tcp[a]), op.tool_number)
+                lines += tcp_lines
+                if frame[a] >= 0 and state.frame != frame[a]:
+                    assert swivel is not None
+                    lines += self.frame_on(swivel, int(frame[a]), options)
+                    state.frame = int(frame[a])
+                    state.forget_position()
                 self._lines(out, lines)
                 prefix = " ".join(p for p in (prefix, switch_prefix) if p)
                 self._run(out, words, state, a, b, prefix, options)
                 prefix = ""
         last_tool = state.tool if state.tool is not None else (
             program.operations[-1].tool_number if program.operations else 0)
-        self._lines(out, self._switch_tcp(state, False, last_tool)[0])
+        self._lines(out, self._leave_frame(state) + self._switch_tcp(state, False, last_tool)[0])
         end = []
         if options.coolant and state.coolant:
             end.append("M9")
@@ -235,6 +261,13 @@ class GCodeWriter:
         return b"".join(out).decode("ascii")
 
     # ------------------------------------------------------------ pieces
+    def _leave_frame(self, state: _State) -> list[str]:
+        if state.frame < 0:
+            return []
+        state.frame = -1
+        state.forget_position()
+        return self.frame_off()
+
     def _switch_tcp(self, state: _State, on: bool, tool: int) -> tuple[list[str], str]:
         if state.tcp == on:
             return [], ""

@@ -26,9 +26,11 @@ from numpy.typing import NDArray
 
 from impeller_cam.errors import InputError
 from postproc.kinematics import kinematics_for
+from postproc.nc_controls import number_text
 from postproc.posts.base import register_post
 from postproc.posts.choices import DialectOption
 from postproc.posts.comments import sanitise_comment
+from postproc.posts.frames import Swivel, frame_rotation, spatial_angles, swivel_segments
 from postproc.posts.gcode import GCodeWriter, _State, _Words
 from postproc.posts.numbers import (
     PAD,
@@ -51,6 +53,12 @@ if TYPE_CHECKING:
 TCPM_ON = "FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS"
 TCPM_VECTOR_ON = "FUNCTION TCPM F TCP AXIS POS PATHCTRL VECTOR"
 TCPM_OFF = "FUNCTION RESET TCPM"
+
+
+def _signed(value: float, decimals: int) -> str:
+    """``+12.5`` / ``-3``: a TNC number with its sign."""
+    text = number_text(float(value), decimals)
+    return text if text.startswith("-") else "+" + text
 
 
 def signed_word(letter: str, quantised: NDArray[np.int64], decimals: int,
@@ -83,6 +91,9 @@ class HeidenhainPost(GCodeWriter):
                       "vector TX TY TZ (needs TCPM: --tcp)"),
         DialectOption("cycl32", ("on", "off"),
                       "CYCL DEF 32 tolerance per operation from the tolerances"),
+        DialectOption("frames", ("off", "plane-spatial", "plane-axial"),
+                      "3+2 segments as 3-axis programs in a PLANE SPATIAL (spatial angles) "
+                      "or PLANE AXIAL (rotary positions) working plane"),
     )
 
     def check_options(self, options: PostOptions, machine: Machine) -> None:
@@ -155,11 +166,33 @@ class HeidenhainPost(GCodeWriter):
                 fixed.append(line)
         super()._lines(out, fixed)
 
+    # ------------------------------------------------------------ 3+2 frames
+    def swivel(self, program: PostedProgram, options: PostOptions) -> Swivel | None:
+        if options.option("frames", "off") == "off":
+            return None
+        return swivel_segments(program)
+
+    def frame_on(self, swivel: Swivel, frame: int, options: PostOptions) -> list[str]:
+        if options.option("frames", "off") == "plane-axial":
+            a, c = (np.degrees(v) for v in swivel.rotary[frame])
+            return [f"PLANE AXIAL A{_signed(a, options.decimals)} C{_signed(c, options.decimals)}"
+                    " TURN MB0 FMAX"]
+        # the frame of the rotary positions as written (rounded), as spatial angles
+        kins = kinematics_for(self._program.machine)
+        rotary = np.radians(np.round(np.degrees(swivel.rotary[frame]), options.decimals))
+        spa, spb, spc = spatial_angles(frame_rotation(kins, rotary[None, :]))[0]
+        return [f"PLANE SPATIAL SPA{_signed(spa, 7)} SPB{_signed(spb, 7)} SPC{_signed(spc, 7)}"
+                " TURN MB0 FMAX"]
+
+    def frame_off(self) -> list[str]:
+        return ["PLANE RESET STAY"]
+
     # ------------------------------------------------------------ program
     def write(self, program: PostedProgram, options: PostOptions) -> str:
         self._name = program_name(program.source, "IMPELLER_CAM" if options.program_number
                                   is None else f"P{options.program_number}")
         self._tcpm = options.option("tcpm", "function")
+        self._program = program
         self._speed = ""
         self._vectors: NDArray[np.int64] | None = None
         if options.tcp and options.option("orientation", "rotary") == "vector":

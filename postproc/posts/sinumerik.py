@@ -28,9 +28,11 @@ from numpy.typing import NDArray
 
 from impeller_cam.errors import InputError
 from postproc.kinematics import kinematics_for
+from postproc.nc_controls import number_text
 from postproc.posts.base import register_post
 from postproc.posts.choices import DialectOption
 from postproc.posts.comments import sanitise_comment
+from postproc.posts.frames import Swivel, swivel_segments
 from postproc.posts.gcode import GCodeWriter, _State, _Words
 from postproc.posts.numbers import quantise, word_bytes
 from postproc.posts.pathfeed import path_feeds
@@ -74,6 +76,9 @@ class SinumerikPost(GCodeWriter):
                       "blocks that turn a rotary axis: G93 inverse time or G94 path feed"),
         DialectOption("cycle832", ("on", "off"),
                       "CYCLE832 high-speed settings per operation from the tolerances"),
+        DialectOption("frames", ("off", "cycle800"),
+                      "3+2 segments as 3-axis programs in a CYCLE800 frame swivelled by the "
+                      "rotary positions"),
     )
 
     def check_options(self, options: PostOptions, machine: Machine) -> None:
@@ -132,6 +137,22 @@ class SinumerikPost(GCodeWriter):
         if options.option("feed", "inverse-time") == "path":
             return path_feeds(program, options.feed_decimals)
         return None
+
+    # ------------------------------------------------------------ 3+2 frames
+    def swivel(self, program: PostedProgram, options: PostOptions) -> Swivel | None:
+        if options.option("frames", "off") == "off":
+            return None
+        return swivel_segments(program)
+
+    def frame_on(self, swivel: Swivel, frame: int, options: PostOptions) -> list[str]:
+        a, c = (number_text(np.degrees(v), options.decimals) for v in swivel.rotary[frame])
+        # _FR 0 (no retract: done), swivel data record "TC1", _ST 0 (new plane), _MODE 192
+        # (rotary axes direct: _A, _B = positions of rotary axes 1, 2), no offsets,
+        # _DIR 1, _FR_I 0, _DMODE 0
+        return [f'CYCLE800(0,"TC1",0,192,0,0,0,{a},{c},0,0,0,0,1,0,0)']
+
+    def frame_off(self) -> list[str]:
+        return ["CYCLE800()"]
 
     # ------------------------------------------------------------ vectors
     def write(self, program: PostedProgram, options: PostOptions) -> str:

@@ -101,6 +101,10 @@ def test_dialect_detection() -> None:
     ("0 BEGIN PGM A MM\n1 CC X+0 Y+0\n", "a.h", "arcs"),
     ("0 BEGIN PGM A MM\n1 FUNCTION TCPM F TCP AXIS SPAT PATHCTRL AXIS\n", "a.h", "SPAT"),
     ("0 BEGIN PGM A MM\n1 Q1 = 5\n", "a.h", "Q parameters"),
+    ('N10 CYCLE800(1,"TC1",0,57,0,0,0,30,0,20,0,0,0,1,0,0)\n', "a.mpf", "direct rotary"),
+    ("0 BEGIN PGM A MM\n1 PLANE RELATIV SPA+10\n", "a.h", "PLANE function"),
+    ("0 BEGIN PGM A MM\n1 PLANE AXIAL A+10 C+0 STAY\n", "a.h", "need the machine"),
+    ('N10 CYCLE800(0,"TC1",0,192,0,0,0,30,20,0,0,0,0,1,0,0)\n', "a.mpf", "need the machine"),
 ])
 def test_unsupported_words_are_refused_with_their_line(text: str, source: str,
                                                        words: str) -> None:
@@ -121,3 +125,21 @@ def test_vectors_need_the_machine_and_become_joints() -> None:
     assert prog.tcp.tolist() == [True]
     lines = "0 BEGIN PGM V MM\n1 L M128\n2 LN X+1 Y+2 Z+3 TX+0 TY-0.5 TZ+0.8660254 F100\n"
     assert np.allclose(parse_nc(lines, "v.h", machine=load_machine(SIM)).joints, prog.joints)
+
+
+def test_moves_in_a_tilted_frame_are_checked() -> None:
+    machine = load_machine(SIM)
+    head = 'N10 CYCLE800(0,"TC1",0,192,0,0,0,30,20,0,0,0,0,1,0,0)\n'
+    with pytest.raises(InputError, match="must program X, Y and Z"):
+        parse_nc(head + "N20 G1 X1 F100\n", "a.mpf", machine=machine)
+    with pytest.raises(InputError, match="inside a tilted frame"):
+        parse_nc(head + "N20 G1 X1 Y2 Z3 A=10 F100\n", "a.mpf", machine=machine)
+    prog = parse_nc(head + "N20 G1 X1 Y2 Z3 F100\nN30 Z4\nN40 CYCLE800()\nN50 G0 Z100\n",
+                    "a.mpf", machine=machine)
+    assert prog.tcp.tolist() == [True, True, False]
+    assert np.allclose(np.degrees(prog.joints[:2, 3:]), [[30, 20], [30, 20]])
+    # the frame's Z' is the tool axis: Z3 -> Z4 moves the tip 1 mm along it
+    from postproc.kinematics import kinematics_for
+
+    _, axis = kinematics_for(machine).forward(prog.joints[:1])
+    assert np.allclose(prog.joints[1, :3] - prog.joints[0, :3], axis[0])

@@ -37,6 +37,12 @@ CASES: dict[str, dict[str, Any]] = {
     "heidenhain_tcpm.h": {"machine": SIM, "post": "heidenhain", "tcp": True},
     "heidenhain_vectors_m128.h": {"machine": TRUNNION, "post": "heidenhain", "tcp": True,
                                   "post_options": {"orientation": "vector", "tcpm": "m128"}},
+    "sinumerik_cycle800.mpf": {"machine": TRUNNION, "post": "sinumerik",
+                               "post_options": {"frames": "cycle800"}},
+    "heidenhain_plane_spatial.h": {"machine": SIM, "post": "heidenhain", "tcp": True,
+                                   "post_options": {"frames": "plane-spatial"}},
+    "heidenhain_plane_axial.h": {"machine": TRUNNION, "post": "heidenhain",
+                                 "post_options": {"frames": "plane-axial"}},
 }
 
 
