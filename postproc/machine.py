@@ -323,6 +323,8 @@ def machine_from_dict(data: Mapping[str, Any], source: str | Path | None = None)
                              field="control.dialect", value=control.dialect,
                              accepted=f"{doc.post!r} (as post), or leave post out")
         post = control.dialect
+    if control is not None and control.options:
+        _check_control_options(post, control.options, file)
     table = None
     if doc.table is not None:
         table = TableGeometry(radius=doc.table.radius, height=doc.table.height,
@@ -341,6 +343,19 @@ def machine_from_dict(data: Mapping[str, Any], source: str | Path | None = None)
         control_model="" if control is None else control.model,
         control_options=MappingProxyType({} if control is None else dict(control.options)),
     )
+
+
+def _check_control_options(post: str, options: Mapping[str, str | bool],
+                           file: Path | None) -> None:
+    """``[control.options]`` against the options the machine's dialect declares."""
+    from postproc.posts import get_post
+    from postproc.posts.choices import resolve_dialect_options
+
+    try:
+        dialect = get_post(post)
+    except (InputError, ImportError):
+        return  # unknown or unavailable dialect: reported when posting
+    resolve_dialect_options(dialect, options, source=file, field_prefix="control.options")
 
 
 def load_machine(path: str | Path) -> Machine:

@@ -32,6 +32,8 @@ DIALECTS = ("gcode", "sinumerik", "heidenhain")
 #: RS274 codes the translation uses for tool-centre-point control on / off.
 TCP_ON_M, TCP_OFF_M = 428, 429
 
+#: Words whose translation needs the positions (vectors, tilted frames).
+_NEEDS_TRACKING = re.compile(r"[ABC]3[ \t]*=|CYCLE800|LN[ \t]|PLANE|T[XYZ][ \t]*[-+\d.]")
 _HEIDENHAIN_START = re.compile(r"^\s*\d*\s*BEGIN\s+PGM\b", re.IGNORECASE)
 _SINUMERIK_HINT = re.compile(r"^\s*%_N_|\b(TRAORI|TRAFOOF|CYCLE8\d\d|ORIWKS|[AC]3?\s*=)|T\s*=\s*\"",
                              re.IGNORECASE | re.MULTILINE)
@@ -98,8 +100,12 @@ def number_text(value: float, decimals: int = 9) -> str:
     return "0" if text in ("-0", "") else text
 
 
-def emit_rs274(canons: list[Canon | None], source: str, machine: Machine | None) -> str:
-    """RS274 text, one line per entry (``None``: an empty line).
+def emit_rs274(canons: list[Canon | str | None], source: str,
+               machine: Machine | None) -> str:
+    """RS274 text, one line per entry (``None``: an empty line, ``str``: as it is).
+
+    Text entries come only from programs without vectors and frames (the positions
+    they would move are then not needed).
 
     Tool-direction vectors become ``A`` and ``C`` words: runs of vector blocks are
     solved with the machine's inverse kinematics (tip: the programmed X, Y, Z in the
@@ -124,7 +130,7 @@ def emit_rs274(canons: list[Canon | None], source: str, machine: Machine | None)
                                (position["A"], position["C"]), source, run[0] + 1)
         for i, (a, c) in zip(run, joints, strict=True):
             entry = canons[i]
-            assert entry is not None
+            assert isinstance(entry, Canon)
             entry.words["A"] = number_text(a)
             entry.words["C"] = number_text(c)
         position["A"], position["C"] = joints[-1]
@@ -132,7 +138,7 @@ def emit_rs274(canons: list[Canon | None], source: str, machine: Machine | None)
         tips.clear()
 
     for index, entry in enumerate(canons):
-        if entry is None:
+        if entry is None or isinstance(entry, str):
             continue
         if "G91" in entry.g:
             incremental = True
@@ -164,7 +170,8 @@ def emit_rs274(canons: list[Canon | None], source: str, machine: Machine | None)
             run.append(index)
             tips.append((position["X"], position["Y"], position["Z"]))
     close_run()
-    return "\n".join("" if entry is None else entry.text() for entry in canons)
+    return "\n".join("" if entry is None else entry if isinstance(entry, str) else entry.text()
+                      for entry in canons)
 
 
 def vector_joints(machine: Machine | None, tips: np.ndarray, vectors: np.ndarray,
@@ -202,7 +209,9 @@ def translate(text: str, dialect: str, source: str, machine: Machine | None) -> 
     if "\r" in text:
         text = text.replace("\r\n", "\n").replace("\r", "\n")
     lines = text.split("\n")
-    canons = (sinumerik_canons if dialect == "sinumerik" else heidenhain_canons)(lines, source)
+    plain = _NEEDS_TRACKING.search(text.upper()) is None  # no vectors, no frames: fast
+    canons = (sinumerik_canons if dialect == "sinumerik" else heidenhain_canons)(
+        lines, source, plain)
     return emit_rs274(canons, source, machine)
 
 

@@ -39,7 +39,30 @@ _REFUSED = {
 }
 
 
+#: A plain straight line (most of a posted program): read without the word loop.
+_SIMPLE_L = re.compile(
+    "".join(rf"(?: {k}(?P<{k}>[-+]?(?:\d+\.?\d*|\.\d+)))?" for k in "XYZAC")
+    + r"(?P<rapid> R0 FMAX)?(?: F(?P<F>\d+\.?\d*|\.\d+))?")
+
+
+def _plain_l(rest: str) -> str | None:
+    """``" X+1 Y-2 R0 FMAX"`` -> ``"G0 X+1 Y-2"``; None unless a plain straight line."""
+    simple = _SIMPLE_L.fullmatch(rest)
+    if simple is None or not any(simple.group(k) for k in "XYZAC"):
+        return None
+    if simple.group("rapid"):
+        return None if simple.group("F") else "G0" + rest.replace(" R0 FMAX", "")
+    return "G1" + rest
+
+
 def _l_block(words: list[str], line: int, source: str, vector_block: bool) -> Canon:
+    if not vector_block:
+        simple = _SIMPLE_L.fullmatch(" " + " ".join(words))
+        if simple is not None and (simple.group("rapid") is None or simple.group("F") is None):
+            found = {k: v for k, v in simple.groupdict().items()
+                     if v is not None and k != "rapid"}
+            if any(k in found for k in "XYZAC"):
+                return Canon(g=["G0" if simple.group("rapid") else "G1"], words=found)
     canon = Canon()
     vector: dict[str, float] = {}
     rapid = False
@@ -141,21 +164,30 @@ def _tool_call(rest: list[str], line: int, source: str) -> Canon:
     return canon
 
 
-def heidenhain_canons(text_lines: list[str], source: str) -> list[Canon | None]:
+def heidenhain_canons(text_lines: list[str], source: str,
+                      plain: bool = False) -> list[Canon | str | None]:
     """One ``Canon`` (or None) per physical line of a Klartext program.
+
+    With ``plain`` (a program without vectors and frames) a plain ``L`` line comes
+    back as its RS274 text, which is much faster.
 
     Raises
     ------
     impeller_cam.errors.InputError
         An unsupported block, naming the file, line, word and what is accepted.
     """
-    out: list[Canon | None] = []
+    out: list[Canon | str | None] = []
     for index, raw in enumerate(text_lines):
         line = index + 1
         text = raw.strip()
         match = _NUMBERED.match(text)
         if match:
             text = match.group(2).strip()
+        if plain and text[:2] == "L " and ";" not in text:
+            quick = _plain_l(text[1:])
+            if quick is not None:
+                out.append(quick)
+                continue
         code = text.split(";", 1)[0].strip().upper()
         words = code.split()
         if not words or code.startswith("*"):

@@ -29,6 +29,12 @@ _TOKEN = re.compile(
     re.IGNORECASE,
 )
 
+#: A plain motion line (most of a posted program): read without the tokenizer.
+_SIMPLE = re.compile(
+    r"(?:N\d+\s+)?(?:(?P<m>G0?[0-3])\s+)?(?:(?P<f>G9[34])\s+)?"
+    + "".join(rf"(?:{k}\s*=?\s*(?P<{k}>{_NUM})\s*)?" for k in "XYZAC")
+    + rf"(?:F\s*=?\s*(?P<F>{_NUM}))?")
+
 #: Siemens G code -> the RS274 word with the same meaning ('' = no meaning here).
 _G: dict[str, str] = {
     **{g: g for g in ("G0", "G1", "G2", "G3", "G17", "G18", "G19", "G40", "G53", "G54",
@@ -73,10 +79,15 @@ class SinumerikLines:
             return None
         if code.startswith("/"):
             code = code[1:]
+        upper = code.upper()
+        simple = _SIMPLE.fullmatch(upper)
+        if simple is not None:
+            g = [f"G{int(x[1:])}" for x in (simple.group("m"), simple.group("f")) if x]
+            return Canon(g=g, words={k: v for k, v in simple.groupdict().items()
+                                     if v is not None and k not in ("m", "f")})
         canon = Canon()
         vector: dict[str, float] = {}
         pos = 0
-        upper = code.upper()
         while pos < len(upper):
             match = _TOKEN.match(upper, pos)
             if match is None or match.end() == pos:
@@ -177,8 +188,12 @@ class SinumerikLines:
                          f"{letter}{number}", _ACCEPTED)
 
 
-def sinumerik_canons(text_lines: list[str], source: str) -> list[Canon | None]:
+def sinumerik_canons(text_lines: list[str], source: str,
+                     plain: bool = False) -> list[Canon | str | None]:
     """One ``Canon`` (or None) per physical line of a Sinumerik program.
+
+    With ``plain`` (a program without vectors and frames) a plain motion line comes
+    back as its RS274 text (``=`` dropped), which is much faster.
 
     Raises
     ------
@@ -186,8 +201,13 @@ def sinumerik_canons(text_lines: list[str], source: str) -> list[Canon | None]:
         An unsupported word, naming the file, line, word and what is accepted.
     """
     parser = SinumerikLines(source)
-    out: list[Canon | None] = []
+    out: list[Canon | str | None] = []
     for index, text in enumerate(text_lines):
+        if plain:
+            code = text.split(";", 1)[0].strip()
+            if code and code[0] not in "%/" and _SIMPLE.fullmatch(code.upper()):
+                out.append(code.replace("=", ""))
+                continue
         canon = parser.parse(text, index + 1)
         if canon is not None:
             if "G4-dwell" in canon.g:

@@ -143,3 +143,23 @@ def test_moves_in_a_tilted_frame_are_checked() -> None:
 
     _, axis = kinematics_for(machine).forward(prog.joints[:1])
     assert np.allclose(prog.joints[1, :3] - prog.joints[0, :3], axis[0])
+
+
+@pytest.mark.parametrize("name", ["sinumerik_joint.mpf", "sinumerik_traori.mpf",
+                                  "heidenhain_joint.h", "heidenhain_tcpm.h"])
+def test_plain_lines_read_fast_as_the_word_parser_reads_them(name: str) -> None:
+    from postproc.nc_controls import emit_rs274
+    from postproc.nc_heidenhain import heidenhain_canons
+    from postproc.nc_sinumerik import sinumerik_canons
+    from tests.postproc.golden.cases import GOLDEN
+
+    lines = (GOLDEN / name).read_text().split("\n")
+    canons = sinumerik_canons if name.endswith(".mpf") else heidenhain_canons
+    quick = canons(lines, name, True)
+    assert sum(isinstance(entry, str) for entry in quick) > 20  # the fast path was taken
+    fast = emit_rs274(quick, name, None)
+    slow = emit_rs274(canons(lines, name, False), name, None)
+    a, b = parse_nc(fast, name, dialect="gcode"), parse_nc(slow, name, dialect="gcode")
+    for column in ("joints", "motion", "feed_mode", "line", "tcp", "tool_number"):
+        assert np.array_equal(getattr(a, column), getattr(b, column)), column
+    assert np.array_equal(a.feed, b.feed, equal_nan=True)

@@ -79,8 +79,9 @@ def test_machine_file_control_errors(tmp_path: Path) -> None:
     path = machine_with_control(tmp_path, '[control]\ndialect = "heidenhain"\n'
                                 '[control.options]\ntcmp = "m128"\n')
     with pytest.raises(InputError, match="did you mean 'tcpm'") as error:
-        post_text(APT, path, tcp=True)
+        load_machine(path)  # checked when the machine is read (impeller-cam check too)
     assert error.value.field == "control.options.tcmp"
+    assert error.value.file is not None and Path(error.value.file) == path
     clash = tmp_path / "clash.toml"
     clash.write_text(SIM.read_text() + '\n[control]\ndialect = "heidenhain"\n')
     with pytest.raises(InputError, match="different dialects"):
