@@ -103,3 +103,27 @@ def test_m128_and_path_feed_forms(tmp_path: Path) -> None:
     assert "L M128" in text and "L M129" in text and "TCPM" not in text
     text = post_text(APT, SIM, post="sinumerik", tcp=True, post_options={"feed": "path"})
     assert "G93" not in text and "TRAORI" in text
+
+
+@pytest.mark.parametrize("post", ["sinumerik", "heidenhain"])
+def test_comments_are_sanitised(post: str) -> None:
+    from postproc.apt import read_apt
+    from postproc.posting import post_toolpaths
+    from postproc.posts import PostOptions, get_post
+
+    evil = "op\nG0 X999 ; M30 (MSG, stop) %_N_X_MPF \u00e9"
+    toolpaths = read_apt(APT)
+    toolpaths[0].name = evil
+    options = PostOptions(header=(evil,), footer=("end\rM30",))
+    text = get_post(post).write(post_toolpaths(toolpaths, load_machine(SIM), options), options)
+    comments = [line for line in text.splitlines() if "; " in line]
+    assert sum("op G0 X999" in line for line in comments) == 2  # header and operation
+    for line in comments:
+        body = line.split("; ", 1)[1]
+        assert ";" not in body and "(" not in body and "%" not in body
+        assert all(32 <= ord(c) <= 126 for c in body)
+    for line in text.splitlines():  # the injected block stays inside a comment
+        if "X999" in line:
+            assert "; " in line.split("X999")[0]
+    code = [line.split(";", 1)[0] for line in text.splitlines()]
+    assert sum("M30" in part for part in code) == 1  # the program's own end only
