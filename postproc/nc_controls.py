@@ -35,8 +35,10 @@ TCP_ON_M, TCP_OFF_M = 428, 429
 #: Words whose translation needs the positions (vectors, tilted frames).
 _NEEDS_TRACKING = re.compile(r"[ABC]3[ \t]*=|CYCLE800|LN[ \t]|PLANE|T[XYZ][ \t]*[-+\d.]")
 _HEIDENHAIN_START = re.compile(r"^\s*\d*\s*BEGIN\s+PGM\b", re.IGNORECASE)
-_SINUMERIK_HINT = re.compile(r"^\s*%_N_|\b(TRAORI|TRAFOOF|CYCLE8\d\d|ORIWKS|[AC]3?\s*=)|T\s*=\s*\"",
-                             re.IGNORECASE | re.MULTILINE)
+_COMMENTS = re.compile(r"\([^)\n]*\)|;[^\n]*")
+_SINUMERIK_HINT = re.compile(
+    r"^\s*%_N_|\b(TRAORI|TRAFOOF|CYCLE8\d\d|ORIWKS|[XYZAC]3?\s*=)|T\s*=\s*\"",
+    re.IGNORECASE | re.MULTILINE)
 
 
 @dataclass
@@ -79,10 +81,13 @@ def detect_dialect(text: str, source: str | Path = "") -> str:
         return "heidenhain"
     if suffix in (".mpf", ".spf"):
         return "sinumerik"
+    if suffix in (".ngc", ".gcode", ".tap"):
+        return "gcode"
     head = text.lstrip("\ufeff").lstrip()[:200]
     if _HEIDENHAIN_START.match(head):
         return "heidenhain"
-    if _SINUMERIK_HINT.search(text[:200_000]):
+    code = _COMMENTS.sub("", text[:200_000])  # words in comments say nothing
+    if _SINUMERIK_HINT.search(code):
         return "sinumerik"
     return "gcode"
 

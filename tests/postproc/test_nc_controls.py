@@ -163,3 +163,9 @@ def test_plain_lines_read_fast_as_the_word_parser_reads_them(name: str) -> None:
     for column in ("joints", "motion", "feed_mode", "line", "tcp", "tool_number"):
         assert np.array_equal(getattr(a, column), getattr(b, column)), column
     assert np.array_equal(a.feed, b.feed, equal_nan=True)
+
+
+def test_words_in_comments_do_not_change_the_dialect() -> None:
+    assert detect_dialect("(A = 5, TRAORI) G0 X1\n; C=3\n", "a.nc") == "gcode"
+    assert detect_dialect("G0 X1 A=5\n", "a.ngc") == "gcode"  # .ngc is LinuxCNC's
+    assert detect_dialect("G0 X=1\n", "a.nc") == "sinumerik"
