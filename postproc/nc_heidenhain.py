@@ -55,8 +55,23 @@ def _plain_l(rest: str) -> str | None:
     return "G1" + rest
 
 
+_SIMPLE_LN = re.compile(
+    "".join(rf"(?: {k}(?P<{k}>[-+]?(?:\d+\.?\d*|\.\d+)))?" for k in "XYZ")
+    + "".join(rf" {k}(?P<{k}>[-+]?(?:\d+\.?\d*|\.\d+))" for k in ("TX", "TY", "TZ"))
+    + r"(?P<rapid> R0 FMAX)?(?: F(?P<F>\d+\.?\d*|\.\d+))?")
+
+
 def _l_block(words: list[str], line: int, source: str, vector_block: bool) -> Canon:
-    if not vector_block:
+    if vector_block:
+        simple = _SIMPLE_LN.fullmatch(" " + " ".join(words))
+        if simple is not None and (simple.group("rapid") is None or simple.group("F") is None):
+            found = {k: v for k, v in simple.groupdict().items()
+                     if v is not None and k in "XYZF"}
+            direction = (float(simple.group("TX")), float(simple.group("TY")),
+                      float(simple.group("TZ")))
+            return Canon(g=["G0" if simple.group("rapid") else "G1"], words=found,
+                         vector=direction)
+    else:
         simple = _SIMPLE_L.fullmatch(" " + " ".join(words))
         if simple is not None and (simple.group("rapid") is None or simple.group("F") is None):
             found = {k: v for k, v in simple.groupdict().items()

@@ -33,7 +33,13 @@ _TOKEN = re.compile(
 _SIMPLE = re.compile(
     r"(?:N\d+\s+)?(?:(?P<m>G0?[0-3])\s+)?(?:(?P<f>G9[34])\s+)?"
     + "".join(rf"(?:{k}\s*=?\s*(?P<{k}>{_NUM})\s*)?" for k in "XYZAC")
+    + "".join(rf"(?:{k}3\s*=\s*(?P<{k}3>{_NUM})\s*)?" for k in "ABC")
     + rf"(?:F\s*=?\s*(?P<F>{_NUM}))?")
+_VECTOR_GROUPS = ("A3", "B3", "C3")
+#: The same without vectors (lines kept as text in programs without vectors).
+_PLAIN = re.compile(
+    r"(?:N\d+\s+)?(?:G0?[0-3]\s+)?(?:G9[34]\s+)?"
+    + "".join(rf"(?:{k}\s*=?\s*{_NUM}\s*)?" for k in "XYZAC") + rf"(?:F\s*=?\s*{_NUM})?")
 
 #: Siemens G code -> the RS274 word with the same meaning ('' = no meaning here).
 _G: dict[str, str] = {
@@ -83,8 +89,13 @@ class SinumerikLines:
         simple = _SIMPLE.fullmatch(upper)
         if simple is not None:
             g = [f"G{int(x[1:])}" for x in (simple.group("m"), simple.group("f")) if x]
-            return Canon(g=g, words={k: v for k, v in simple.groupdict().items()
-                                     if v is not None and k not in ("m", "f")})
+            found = simple.groupdict()
+            parts = [found.pop(k) for k in _VECTOR_GROUPS]
+            direction = None if parts == [None] * 3 else (
+                float(parts[0] or 0.0), float(parts[1] or 0.0), float(parts[2] or 0.0))
+            return Canon(g=g, words={k: v for k, v in found.items()
+                                     if v is not None and k not in ("m", "f")},
+                         vector=direction)
         canon = Canon()
         vector: dict[str, float] = {}
         pos = 0
@@ -205,7 +216,7 @@ def sinumerik_canons(text_lines: list[str], source: str,
     for index, text in enumerate(text_lines):
         if plain:
             code = text.split(";", 1)[0].strip()
-            if code and code[0] not in "%/" and _SIMPLE.fullmatch(code.upper()):
+            if code and code[0] not in "%/" and _PLAIN.fullmatch(code.upper()):
                 out.append(code.replace("=", ""))
                 continue
         canon = parser.parse(text, index + 1)

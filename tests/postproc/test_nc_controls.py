@@ -125,6 +125,11 @@ def test_vectors_need_the_machine_and_become_joints() -> None:
     assert prog.tcp.tolist() == [True]
     lines = "0 BEGIN PGM V MM\n1 L M128\n2 LN X+1 Y+2 Z+3 TX+0 TY-0.5 TZ+0.8660254 F100\n"
     assert np.allclose(parse_nc(lines, "v.h", machine=load_machine(SIM)).joints, prog.joints)
+    # other word orders take the word-by-word parser: the same block
+    other = "N10 TRAORI\nN20 B3=-0.5 C3=0.8660254 G1 F100 X1 Y2 Z3 ; A3 left out = 0\n"
+    assert np.allclose(parse_nc(other, "v.mpf", machine=load_machine(SIM)).joints, prog.joints)
+    lines = "0 BEGIN PGM V MM\n1 L M128\n2 LN TX+0 TY-0.5 TZ+0.8660254 X+1 Y+2 Z+3 F100 M8\n"
+    assert np.allclose(parse_nc(lines, "v.h", machine=load_machine(SIM)).joints, prog.joints)
 
 
 def test_moves_in_a_tilted_frame_are_checked() -> None:
