@@ -159,9 +159,15 @@ def post_command(
     program_number: Annotated[
         int | None, typer.Option(help="Program number (O word), dialects that use one.")
     ] = None,
+    post_option: Annotated[
+        list[str] | None,
+        typer.Option("--post-option", help="Dialect option KEY=VALUE (repeatable; "
+                     "`impeller-cam posts` lists them), over the machine file's."),
+    ] = None,
 ) -> None:
     """Post an APT file for a machine: atomic, deterministic NC output."""
     from postproc.command import run_post
+    from postproc.posts.choices import parse_option_words
 
     run_post(
         apt,
@@ -173,6 +179,7 @@ def post_command(
         angular_tolerance_deg=angular_tolerance,
         block_numbers=block_numbers,
         program_number=program_number,
+        post_options=parse_option_words(post_option or []),
     )
 
 

@@ -7,6 +7,7 @@ file of that name is left untouched).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from math import radians
 from pathlib import Path
 
@@ -24,6 +25,7 @@ def post_text(
     angular_tolerance_deg: float = 0.5,
     block_numbers: bool = False,
     program_number: int | None = None,
+    post_options: Mapping[str, str] | None = None,
 ) -> str:
     """Post an APT file for a machine and return the program text (nothing written).
 
@@ -33,6 +35,7 @@ def post_text(
     from postproc.machine import load_machine
     from postproc.posting import post_toolpaths
     from postproc.posts import PostOptions, get_post
+    from postproc.posts.choices import options_for_machine
 
     if not tolerance > 0:
         raise InputError("chordal tolerance must be positive", field="--tolerance",
@@ -40,18 +43,22 @@ def post_text(
     if not angular_tolerance_deg > 0:
         raise InputError("angular tolerance must be positive", field="--angular-tolerance",
                          value=angular_tolerance_deg, accepted="an angle > 0 deg")
+    the_machine = load_machine(machine)
+    dialect = get_post(post or the_machine.post)
+    if tcp and not dialect.supports_tcp:
+        raise InputError(f"post-processor {dialect.name!r} cannot write TCP programs",
+                         field="--tcp", value=True, accepted="a dialect with TCP support")
     options = PostOptions(
         tcp=tcp,
         chordal_tolerance=tolerance,
         angular_tolerance=radians(angular_tolerance_deg),
         block_numbers=block_numbers,
         program_number=program_number,
+        dialect_options=options_for_machine(dialect, the_machine, post_options),
     )
-    the_machine = load_machine(machine)
-    dialect = get_post(post or the_machine.post)
-    if tcp and not dialect.supports_tcp:
-        raise InputError(f"post-processor {dialect.name!r} cannot write TCP programs",
-                         field="--tcp", value=True, accepted="a dialect with TCP support")
+    check = getattr(dialect, "check_options", None)
+    if check is not None:
+        check(options, the_machine)
     toolpaths = read_apt(apt)
     posted = post_toolpaths(toolpaths, the_machine, options, source=Path(apt).name)
     return dialect.write(posted, options)
@@ -68,6 +75,7 @@ def run_post(
     angular_tolerance_deg: float = 0.5,
     block_numbers: bool = False,
     program_number: int | None = None,
+    post_options: Mapping[str, str] | None = None,
 ) -> None:
     """Post an APT CLDATA file for a machine and write the NC program atomically.
 
@@ -91,6 +99,9 @@ def run_post(
         Write ``N`` words.
     program_number : int, optional
         ``O`` number (dialects that use one), 1..9999.
+    post_options : mapping of str to str, optional
+        Dialect options (``--post-option KEY=VALUE``) over the machine file's
+        ``[control.options]``.
 
     Raises
     ------
@@ -100,7 +111,8 @@ def run_post(
     """
     text = post_text(apt, machine, post=post, tcp=tcp, tolerance=tolerance,
                      angular_tolerance_deg=angular_tolerance_deg,
-                     block_numbers=block_numbers, program_number=program_number)
+                     block_numbers=block_numbers, program_number=program_number,
+                     post_options=post_options)
     write_text_atomic(out, text)
 
 
@@ -108,7 +120,8 @@ def run_posts() -> None:
     """Print the registered post-processors: name, description and source."""
     import typer
 
-    from postproc.posts import available_posts
+    from postproc.posts import available_posts, get_post
+    from postproc.posts.choices import declared_options
 
     rows = available_posts()
     widths = [max(len(row[i]) for row in rows + [("name", "description", "source")])
@@ -116,3 +129,10 @@ def run_posts() -> None:
     typer.echo(f"{'name':<{widths[0]}}  {'description':<{widths[1]}}  source")
     for name, description, source in rows:
         typer.echo(f"{name:<{widths[0]}}  {description:<{widths[1]}}  {source}")
+        try:
+            declared = declared_options(get_post(name))
+        except ImportError:
+            declared = ()
+        for option in declared:
+            typer.echo(f"    --post-option {option.name}={'|'.join(option.choices)}: "
+                       f"{option.description}")

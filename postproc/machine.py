@@ -152,6 +152,11 @@ class Machine:
         The TOML it was read from.
     description : str
         Free text (provenance of the numbers).
+    control_model : str
+        The control's model (``[control] model``), free text.
+    control_options : Mapping[str, str or bool]
+        Options of the control's dialect (``[control.options]``), checked when a
+        program is posted with that dialect.
     """
 
     name: str
@@ -164,6 +169,9 @@ class Machine:
     table: TableGeometry | None = None
     source: Path | None = None
     description: str = ""
+    control_model: str = ""
+    control_options: Mapping[str, str | bool] = field(
+        default_factory=lambda: MappingProxyType({}))
 
     @property
     def axis_names(self) -> tuple[str, ...]:
@@ -307,6 +315,16 @@ def machine_from_dict(data: Mapping[str, Any], source: str | Path | None = None)
             field=f"axes.{missing[0]}",
             accepted=f"tables [axes.X] for X in {names}",
         )
+    post = doc.post
+    control = doc.control
+    if control is not None and control.dialect is not None:
+        if "post" in data and doc.post != control.dialect:
+            raise InputError("post and control.dialect name different dialects", file=file,
+                             field="control.dialect", value=control.dialect,
+                             accepted=f"{doc.post!r} (as post), or leave post out")
+        post = control.dialect
+    if control is not None and control.options:
+        _check_control_options(post, control.options, file)
     table = None
     if doc.table is not None:
         table = TableGeometry(radius=doc.table.radius, height=doc.table.height,
@@ -318,11 +336,26 @@ def machine_from_dict(data: Mapping[str, Any], source: str | Path | None = None)
         pivot=PivotOffsets(**doc.pivot.model_dump()),
         conventional_directions=doc.conventional_directions,
         tcp=doc.tcp,
-        post=doc.post,
+        post=post,
         table=table,
         source=file,
         description=doc.description,
+        control_model="" if control is None else control.model,
+        control_options=MappingProxyType({} if control is None else dict(control.options)),
     )
+
+
+def _check_control_options(post: str, options: Mapping[str, str | bool],
+                           file: Path | None) -> None:
+    """``[control.options]`` against the options the machine's dialect declares."""
+    from postproc.posts import get_post
+    from postproc.posts.choices import resolve_dialect_options
+
+    try:
+        dialect = get_post(post)
+    except (InputError, ImportError):
+        return  # unknown or unavailable dialect: reported when posting
+    resolve_dialect_options(dialect, options, source=file, field_prefix="control.options")
 
 
 def load_machine(path: str | Path) -> Machine:

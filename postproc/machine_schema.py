@@ -14,7 +14,7 @@ from pydantic import Field, model_validator
 
 from impeller_cam.schema import Strict, quantity
 
-__all__ = ["AxisTable", "MachineFile", "ServoTable"]
+__all__ = ["AxisTable", "ControlTable", "MachineFile", "ServoTable"]
 
 #: A bound that may be infinite (rotary travel, jerk) but never NaN.
 Unbounded = Annotated[float, Field(allow_inf_nan=True)]
@@ -98,6 +98,18 @@ class AxesTable(Strict):
         return {name: table for name, table in self if table is not None}
 
 
+class ControlTable(Strict):
+    """``[control]``: the numerical control and the options it has."""
+
+    dialect: str | None = quantity(None, min_length=1,
+                                   description="post-processor of the control (sinumerik, "
+                                   "heidenhain, linuxcnc, fanuc); sets the default post")
+    model: str = quantity("", description="control model, free text (SINUMERIK 840D sl)")
+    options: dict[str, str | bool] = quantity(
+        default_factory=dict, description="dialect options of this control (impeller-cam "
+        "posts lists them), e.g. orientation = \"vector\"")
+
+
 class MachineFile(Strict):
     """A machine TOML file."""
 
@@ -110,3 +122,4 @@ class MachineFile(Strict):
     pivot: PivotTable = quantity(default_factory=PivotTable.defaults)
     axes: AxesTable = quantity(description="one table per joint")
     table: TableTable | None = quantity(None, description="rotary table geometry")
+    control: ControlTable | None = quantity(None, description="numerical control and options")

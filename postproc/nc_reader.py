@@ -19,6 +19,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -34,8 +35,12 @@ from postproc.gcode_words import (
     Block,
     parse_block,
 )
+from postproc.nc_controls import DIALECTS, TCP_OFF_M, TCP_ON_M, detect_dialect, translate
 from postproc.nc_fast import SimpleLines, read_run, split_lines
 from postproc.program import FeedMode, MachineProgram, Motion
+
+if TYPE_CHECKING:
+    from postproc.machine import Machine
 
 MM_PER_INCH = 25.4
 
@@ -373,8 +378,23 @@ def parse_nc_document(text: str, source: str = "<string>", *,
                       chordal_tolerance: float | None = None,
                       start: Sequence[float] | None = None,
                       switchkins: Mapping[int, bool] | None = None,
-                      home: Sequence[float] | None = None) -> NcDocument:
-    """Parse G-code text into joint-space blocks and notes (see ``parse_nc``)."""
+                      home: Sequence[float] | None = None,
+                      dialect: str | None = None,
+                      machine: Machine | None = None) -> NcDocument:
+    """Parse G-code text into joint-space blocks and notes (see ``parse_nc``).
+
+    ``dialect`` (``gcode``, ``sinumerik``, ``heidenhain``; default: detected from the
+    file name and text) selects a line-for-line translation to RS274 first
+    (``postproc.nc_controls``); ``machine`` is needed for tool-direction vectors.
+    """
+    text = text.removeprefix("\ufeff")
+    kind = detect_dialect(text, source) if dialect is None else dialect
+    if kind not in DIALECTS:
+        raise InputError("unknown NC dialect", field="dialect", value=dialect,
+                         accepted=", ".join(DIALECTS))
+    if kind != "gcode":
+        text = translate(text, kind, source, machine)
+        switchkins = {TCP_ON_M: True, TCP_OFF_M: False}
     tolerance = DEFAULT_TOLERANCES.chordal if chordal_tolerance is None else chordal_tolerance
     if not tolerance > 0.0:
         raise ValueError(f"chordal_tolerance must be positive, not {tolerance}")
@@ -395,7 +415,8 @@ def parse_nc_document(text: str, source: str = "<string>", *,
 def parse_nc(text: str, source: str = "<string>", *, chordal_tolerance: float | None = None,
              start: Sequence[float] | None = None,
              switchkins: Mapping[int, bool] | None = None,
-             home: Sequence[float] | None = None) -> MachineProgram:
+             home: Sequence[float] | None = None, dialect: str | None = None,
+             machine: Machine | None = None) -> MachineProgram:
     """Parse G-code text into a ``MachineProgram`` whose blocks keep their source lines.
 
     Parameters
@@ -414,6 +435,12 @@ def parse_nc(text: str, source: str = "<string>", *, chordal_tolerance: float | 
     home : (5,) sequence of float, optional
         Machine reference position (joints, mm and rad) for G28/G30. Without it a
         reference return is a note when nothing moves after it, an error otherwise.
+    dialect : str, optional
+        ``gcode``, ``sinumerik`` or ``heidenhain``; default: detected (``.mpf``/``.spf``
+        and Siemens words -> sinumerik, ``.h`` and ``BEGIN PGM`` -> heidenhain).
+    machine : Machine, optional
+        Needed to read tool-direction vectors (``A3= B3= C3=``, ``LN ... TX TY TZ``):
+        they become rotary joints through its inverse kinematics.
 
     Returns
     -------
@@ -426,7 +453,8 @@ def parse_nc(text: str, source: str = "<string>", *, chordal_tolerance: float | 
         A malformed or unsupported word or block, named by file, line, word and value.
     """
     return parse_nc_document(text, source, chordal_tolerance=chordal_tolerance, start=start,
-                             switchkins=switchkins, home=home).program
+                             switchkins=switchkins, home=home, dialect=dialect,
+                             machine=machine).program
 
 
 def read_nc(path: str | Path, **options: object) -> MachineProgram:

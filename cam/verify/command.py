@@ -279,7 +279,7 @@ def run_verify(
     kins = kinematics_for(the_machine)
     the_tool = resolve_tool(tool)
     shape = tool_shape(the_tool)
-    read = [read_nc(p) for p in programs]  # all programs parse before any work
+    read = [read_nc(p, machine=the_machine) for p in programs]  # all parse before any work
     design_mesh = (load_design(design) if design is not None and design_distance is None
                    else None)
     work = load_stock(stock, resolution)

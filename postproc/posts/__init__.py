@@ -1,12 +1,13 @@
 """Post-processor plug-ins (dialects) and their registry.
 
-Built-ins: ``linuxcnc`` and ``fanuc``. Third-party dialects register through the
-entry-point group ``impeller_cam.postprocessors`` (see docs/postprocessors.md).
+Built-ins: ``linuxcnc``, ``fanuc``, ``sinumerik`` and ``heidenhain``. Third-party
+dialects register through the entry-point group ``impeller_cam.postprocessors`` (see
+docs/postprocessors.md).
 """
 
 from __future__ import annotations
 
-from postproc.posts import fanuc, linuxcnc  # noqa: F401  (register the built-ins)
+from postproc.posts import fanuc, heidenhain, linuxcnc, sinumerik  # noqa: F401  (built-ins)
 from postproc.posts.base import (
     ENTRY_POINT_GROUP,
     PostOptions,

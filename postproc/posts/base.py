@@ -79,6 +79,10 @@ class PostOptions:
     blend_tolerance : float or None
         Path-blending tolerance written where the dialect supports it (LinuxCNC
         ``G64 P``), mm; None: the chordal tolerance.
+    dialect_options : Mapping[str, str]
+        The dialect's own options (``impeller-cam posts`` lists them), already
+        resolved by ``postproc.posts.choices.resolve_dialect_options``; a dialect
+        takes its declared default for a key that is missing.
     """
 
     tcp: bool = False
@@ -98,6 +102,11 @@ class PostOptions:
     decimals: int = 4
     feed_decimals: int = 3
     blend_tolerance: float | None = None
+    dialect_options: Mapping[str, str] = field(default_factory=dict)
+
+    def option(self, name: str, default: str) -> str:
+        """The dialect option ``name`` (``default`` when not given)."""
+        return str(self.dialect_options.get(name, default))
 
     def __post_init__(self) -> None:
         def bad(name: str, value: Any, accepted: str) -> InputError:

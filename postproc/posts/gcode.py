@@ -33,6 +33,7 @@ from postproc.program import FeedMode, Motion
 if TYPE_CHECKING:
     from postproc.posting import OperationInfo, PostedProgram
     from postproc.posts.base import PostOptions
+    from postproc.posts.frames import Swivel
 
 #: Word letters of the five joint columns.
 AXIS_LETTERS = ("X", "Y", "Z", "A", "C")
@@ -52,10 +53,14 @@ class _State:
     spindle: float | None = None  # rev/min in force, None: off / unknown
     coolant: bool = False
     tool: int | None = None
+    vector: tuple[int, int, int] | None = None  # tool-direction words (vector dialects)
+    frame: int = -1  # active tilted frame (3+2), -1: none
 
     def forget_position(self, columns: tuple[int, ...] = (0, 1, 2, 3, 4)) -> None:
         for j in columns:
             self.words[j] = UNKNOWN
+        if 3 in columns or 4 in columns:
+            self.vector = None
 
 
 @dataclass
@@ -66,16 +71,23 @@ class _Words:
     quantised: NDArray[np.int64]
     present: NDArray[np.bool_]
     f_quant: NDArray[np.int64]
+    feed_mode: NDArray[np.int16]
 
     @classmethod
-    def of(cls, program: PostedProgram, options: PostOptions) -> _Words:
-        values = program.blocks.joints.copy()
+    def of(cls, program: PostedProgram, options: PostOptions,
+           feeds: tuple[NDArray[np.int16], NDArray[np.float64]] | None = None,
+           swivel: Swivel | None = None) -> _Words:
+        """Quantise the program's words; ``feeds`` replaces its (feed mode, F) columns,
+        ``swivel`` its words in the 3+2 segments (frame coordinates)."""
+        values = (program.blocks.joints if swivel is None else swivel.words).copy()
+        present = program.present if swivel is None else swivel.present
         values[:, 3:] = np.degrees(values[:, 3:])
         finite = np.isfinite(values)
         quantised = quantise(np.where(finite, values, 0.0).ravel(), options.decimals)
-        feeds = program.blocks.feed
-        return cls(program, quantised.reshape(-1, 5), program.present & finite,
-                   quantise(np.where(np.isfinite(feeds), feeds, 0.0), options.feed_decimals))
+        mode, f = (program.blocks.feed_mode, program.blocks.feed) if feeds is None else feeds
+        return cls(program, quantised.reshape(-1, 5), present & finite,
+                   quantise(np.where(np.isfinite(f), f, 0.0), options.feed_decimals),
+                   np.asarray(mode, dtype=np.int16))
 
 
 class GCodeWriter:
@@ -100,6 +112,10 @@ class GCodeWriter:
     upper_comments = False
     trailing_point = False
     max_block_number = 99999999
+    #: Lines that get no block number (comments, tape marks).
+    unnumbered: tuple[str, ...] = ("(", "%")
+    #: Address of each joint column (``A=`` style for controls that take it).
+    axis_letters: tuple[str, ...] = AXIS_LETTERS
 
     # ------------------------------------------------------------ dialect hooks
     def program_start(self, program: PostedProgram, options: PostOptions) -> list[str]:
@@ -121,6 +137,36 @@ class GCodeWriter:
     def program_end(self, options: PostOptions) -> list[str]:
         """Lines that end the program."""
         return ["M2"]
+
+    def tool_call(self, op: OperationInfo, options: PostOptions) -> list[str]:
+        """Lines that load the operation's tool (after spindle and coolant stop)."""
+        return [f"T{op.tool_number} M6"]
+
+    def length_prefix(self, tool: int) -> str:
+        """Words on the first move after a tool change (tool-length compensation)."""
+        return f"G43 H{tool}"
+
+    def operation_start(self, program: PostedProgram, index: int,
+                        options: PostOptions) -> list[str]:
+        """Lines after the spindle and coolant words of operation ``index``."""
+        return []
+
+    def feed_words(self, program: PostedProgram,
+                   options: PostOptions) -> tuple[NDArray[np.int16], NDArray[np.float64]] | None:
+        """(feed mode, F) per block when the dialect writes other feeds; None: as posted."""
+        return None
+
+    def swivel(self, program: PostedProgram, options: PostOptions) -> Swivel | None:
+        """3+2 segments to write in tilted frames (``postproc.posts.frames``); None: none."""
+        return None
+
+    def frame_on(self, swivel: Swivel, frame: int, options: PostOptions) -> list[str]:
+        """Lines that activate tilted frame ``frame`` (rotary axes already there)."""
+        raise NotImplementedError
+
+    def frame_off(self) -> list[str]:
+        """Lines that cancel the tilted frame."""
+        raise NotImplementedError
 
     # ------------------------------------------------------------ shared text
     def comment(self, text: object) -> str:
@@ -161,7 +207,10 @@ class GCodeWriter:
             out.append(line.encode("ascii") + b"\n")
         self._lines(out, self.header(program, options) + self.preamble(program, options))
         state = _State()
-        words = _Words.of(program, options)
+        swivel = self.swivel(program, options)
+        words = _Words.of(program, options, self.feed_words(program, options), swivel)
+        frame = np.full(len(program), -1) if swivel is None else swivel.frame
+        tcp = program.blocks.tcp & (frame < 0)
         bounds = [op.first_block for op in program.operations] + [len(program)]
         for k, op in enumerate(program.operations):
             start, stop = bounds[k], bounds[k + 1]
@@ -170,31 +219,38 @@ class GCodeWriter:
             if op.tool_change:
                 active = op.tool_number if state.tool is None else state.tool
                 lines, prefix = self._switch_tcp(state, False, active)
-                self._lines(out, lines)
+                self._lines(out, self._leave_frame(state) + lines)
                 if start < stop and program.role[start] == _role_retract():
                     self._run(out, words, state, start, start + 1, prefix, options)
                     prefix = ""
                     start += 1
                 self._lines(out, self._tool_change(state, op, options))
-                prefix = f"G43 H{op.tool_number}"
+                prefix = self.length_prefix(op.tool_number)
                 state.forget_position((2,))
             self._lines(out, self._spindle_coolant(state, op, options))
-            # runs of one TCP state
-            tcp = program.blocks.tcp
-            edges = [start] + [int(i) for i in np.flatnonzero(tcp[start + 1:stop]
-                                                               != tcp[start:stop - 1]) + start + 1]
-            edges.append(stop)
+            self._lines(out, self.operation_start(program, k, options))
+            # runs of one TCP state and one frame
+            change = (tcp[start + 1:stop] != tcp[start:stop - 1]) | (
+                frame[start + 1:stop] != frame[start:stop - 1])
+            edges = [start] + [int(i) for i in np.flatnonzero(change) + start + 1] + [stop]
             for a, b in zip(edges[:-1], edges[1:], strict=True):
                 if a >= b:
                     continue
-                lines, switch_prefix = self._switch_tcp(state, bool(tcp[a]), op.tool_number)
+                lines = self._leave_frame(state) if state.frame != frame[a] else []
+                tcp_lines, switch_prefix = self._switch_tcp(state, bool(tcp[a]), op.tool_number)
+                lines += tcp_lines
+                if frame[a] >= 0 and state.frame != frame[a]:
+                    assert swivel is not None
+                    lines += self.frame_on(swivel, int(frame[a]), options)
+                    state.frame = int(frame[a])
+                    state.forget_position()
                 self._lines(out, lines)
                 prefix = " ".join(p for p in (prefix, switch_prefix) if p)
                 self._run(out, words, state, a, b, prefix, options)
                 prefix = ""
         last_tool = state.tool if state.tool is not None else (
             program.operations[-1].tool_number if program.operations else 0)
-        self._lines(out, self._switch_tcp(state, False, last_tool)[0])
+        self._lines(out, self._leave_frame(state) + self._switch_tcp(state, False, last_tool)[0])
         end = []
         if options.coolant and state.coolant:
             end.append("M9")
@@ -205,6 +261,13 @@ class GCodeWriter:
         return b"".join(out).decode("ascii")
 
     # ------------------------------------------------------------ pieces
+    def _leave_frame(self, state: _State) -> list[str]:
+        if state.frame < 0:
+            return []
+        state.frame = -1
+        state.forget_position()
+        return self.frame_off()
+
     def _switch_tcp(self, state: _State, on: bool, tool: int) -> tuple[list[str], str]:
         if state.tcp == on:
             return [], ""
@@ -220,7 +283,7 @@ class GCodeWriter:
         if options.spindle and state.spindle is not None:
             lines.append("M5")
             state.spindle = None
-        lines.append(f"T{op.tool_number} M6")
+        lines += self.tool_call(op, options)
         state.tool = op.tool_number
         return lines
 
@@ -241,7 +304,7 @@ class GCodeWriter:
 
     def _lines(self, out: list[bytes], lines: list[str]) -> None:
         for line in lines:
-            if self._numbered and not line.startswith(("(", "%")):
+            if self._numbered and not line.startswith(self.unnumbered):
                 self._counter += 1
                 line = f"N{self._block_number(np.array([self._counter]))[0]} {line}"
             out.append(line.encode("ascii") + b"\n")
@@ -267,11 +330,12 @@ class GCodeWriter:
         p = present[start:stop]
         emit = np.stack([modal_changes(q[:, j], p[:, j], state.words[j]) for j in range(5)],
                         axis=1)
+        axis_columns = self.axis_columns(words, state, start, stop, emit, options)
         if not emit.any(axis=1).all():
             row = int(np.flatnonzero(~emit.any(axis=1))[0]) + start
             raise RuntimeError(f"block {row} moves no axis (posting should have dropped it)")
         motion = program.blocks.motion[start:stop].astype(np.int64)
-        mode = program.blocks.feed_mode[start:stop].astype(np.int64)
+        mode = words.feed_mode[start:stop].astype(np.int64)
         cutting = motion == Motion.LINEAR
         every = np.ones(n, dtype=bool)
         g_emit = modal_changes(motion, every, state.motion)
@@ -297,9 +361,7 @@ class GCodeWriter:
                            .astype(np.uint8))
         columns.append(choice_bytes([" G93", " G94"],
                                     np.where(mode_emit, np.where(inverse, 0, 1), -1)))
-        for j, letter in enumerate(AXIS_LETTERS):
-            columns.append(word_bytes(letter, q[:, j], options.decimals, emit[:, j],
-                                      trailing_point=self.trailing_point))
+        columns += axis_columns
         columns.append(word_bytes("F", f, options.feed_decimals, f_emit,
                                   trailing_point=self.trailing_point))
         out.append(assemble_lines(columns))
@@ -311,6 +373,20 @@ class GCodeWriter:
         if len(cut_rows):
             last = int(cut_rows[-1])
             state.feed = int(f[last]) if not inverse[last] else UNKNOWN
+
+
+    def axis_columns(self, words: _Words, state: _State, start: int, stop: int,
+                     emit: NDArray[np.bool_], options: PostOptions) -> list[NDArray[np.uint8]]:
+        """Byte columns of the axis words of blocks ``start:stop``.
+
+        ``emit`` (n, 5) says which of X, Y, Z, A, C change; a dialect that writes the
+        orientation otherwise (tool-direction vectors) overrides this and may set
+        ``emit`` for rows whose orientation words change (in place).
+        """
+        q = words.quantised[start:stop]
+        return [word_bytes(letter, q[:, j], options.decimals, emit[:, j],
+                           trailing_point=self.trailing_point)
+                for j, letter in enumerate(self.axis_letters)]
 
 
 def _role_retract() -> int:

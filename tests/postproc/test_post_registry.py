@@ -44,7 +44,7 @@ def test_builtins_are_listed_and_follow_the_protocol() -> None:
 
 def test_unknown_post_is_input_error() -> None:
     with pytest.raises(InputError) as error:
-        get_post("heidenhain")
+        get_post("okuma")
     assert error.value.field == "--post" and "linuxcnc" in str(error.value)
 
 

@@ -29,6 +29,20 @@ CASES: dict[str, dict[str, Any]] = {
                        "program_number": 1234},
     "fanuc_tcp.nc": {"machine": TRUNNION, "post": "fanuc", "tcp": True,
                      "angular_tolerance_deg": 0.25},
+    "sinumerik_joint.mpf": {"machine": TRUNNION, "post": "sinumerik", "block_numbers": True},
+    "sinumerik_traori.mpf": {"machine": SIM, "post": "sinumerik", "tcp": True},
+    "sinumerik_vectors.mpf": {"machine": TRUNNION, "post": "sinumerik", "tcp": True,
+                              "post_options": {"orientation": "vector", "feed": "path"}},
+    "heidenhain_joint.h": {"machine": TRUNNION, "post": "heidenhain"},
+    "heidenhain_tcpm.h": {"machine": SIM, "post": "heidenhain", "tcp": True},
+    "heidenhain_vectors_m128.h": {"machine": TRUNNION, "post": "heidenhain", "tcp": True,
+                                  "post_options": {"orientation": "vector", "tcpm": "m128"}},
+    "sinumerik_cycle800.mpf": {"machine": TRUNNION, "post": "sinumerik",
+                               "post_options": {"frames": "cycle800"}},
+    "heidenhain_plane_spatial.h": {"machine": SIM, "post": "heidenhain", "tcp": True,
+                                   "post_options": {"frames": "plane-spatial"}},
+    "heidenhain_plane_axial.h": {"machine": TRUNNION, "post": "heidenhain",
+                                 "post_options": {"frames": "plane-axial"}},
 }
 
 
