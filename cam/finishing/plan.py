@@ -418,7 +418,8 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     stepover = scallop_stepover(tool.radius, options.scallop_mm)
     base = passage_paths(surfaces, tool.radius, options.point_spacing_mm, stepover,
                          blade=options.blade_passes, hub=options.hub_passes,
-                         reach=max(tool.flute_length - tool.radius, 0.0))
+                         reach=max(tool.flute_length - tool.radius, 0.0),
+                         chordal=options.chordal_tolerance_mm)
     blades = surfaces.spec.blades
     count = blades if options.passages is None else min(options.passages, blades)
     ordered: list[CutterPath] = []
