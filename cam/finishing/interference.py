@@ -120,7 +120,8 @@ def check_path(scene: CollisionScene, tool: Tool, tip: Array, axis: Array,
                                     cutter_allowance=options.cutter_allowance_mm,
                                     # only compared with the limit: exact below it
                                     clearance_cap=options.clearance_mm,
-                                    clearance_limits=(options.clearance_mm,))
+                                    clearance_limits=(options.clearance_mm,),
+                                    ends=report)  # the postures are checked above
         mclear = np.asarray(motion.clearance, dtype=np.float64)
         motion_collides = np.asarray(motion.collides, dtype=bool) | (
             np.isfinite(mclear) & (mclear < options.clearance_mm))
