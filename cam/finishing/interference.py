@@ -207,13 +207,30 @@ def _turned(axis: Array, sign: float, k: int, step: float) -> Array:
 def _take_hint(scene: CollisionScene, tool: Tool, centre: Array, axis: Array, sign: float,
                step: float, hint: StepHint, options: FinishOptions
                ) -> InterferenceResult | None:
-    """The result of step ``hint.free_step`` if the hint is proven, else None."""
+    """The result of step ``hint.free_step`` if the hint is proven, else None.
+
+    The witness postures of all lower steps are checked in one call; a step whose
+    witness posture is clear is then checked as ``first_interference`` does (the
+    motion from the witness).
+    """
     radius = tool.radius
-    for k, witness in enumerate(hint.witnesses):
-        turned = _turned(axis, sign, k, step)
-        if first_interference(scene, tool, centre - radius * turned, turned,
-                              np.array([witness], dtype=np.intp), options) < 0:
-            return None
+    witnesses = np.asarray(hint.witnesses, dtype=np.intp)
+    if witnesses.size:
+        # the rows of each step's whole turned path (the very postures of a full check)
+        rows = np.stack([_turned(axis, sign, k, step)[w]
+                         for k, w in enumerate(witnesses.tolist())])
+        report = scene.check_postures(tool, centre[witnesses] - radius * rows, rows,
+                                      cutter_allowance=options.cutter_allowance_mm,
+                                      clearance_cap=options.clearance_mm,
+                                      clearance_limits=(options.clearance_mm,))
+        clear = np.asarray(report.clearance, dtype=np.float64)
+        posture_bad = np.asarray(report.collides) | (np.isfinite(clear)
+                                                     & (clear < options.clearance_mm))
+        for k in np.flatnonzero(~posture_bad).tolist():
+            turned = _turned(axis, sign, k, step)
+            if first_interference(scene, tool, centre - radius * turned, turned,
+                                  witnesses[k:k + 1], options) < 0:
+                return None
     k = hint.free_step
     turned = _turned(axis, sign, k, step)
     trial = check_path(scene, tool, centre - radius * turned, turned, options)
