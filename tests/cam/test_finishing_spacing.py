@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -110,3 +111,18 @@ def test_cli_refuses_a_bad_chordal_tolerance(tmp_path: Path) -> None:
                  "-o", str(out), "--chordal-tol", "-0.5"])
     assert code == 2
     assert not out.exists()
+
+
+def test_spec_table_refuses_a_bad_chordal_tolerance(tmp_path: Path) -> None:
+    """``[machining.finish] chordal_tolerance_mm`` goes through the schema layer."""
+    folder = tmp_path / "nine_blade"
+    shutil.copytree(NINE.parent, folder)
+    spec = folder / "spec.toml"
+    text = spec.read_text()
+    assert "[machining.finish]\n" in text
+    spec.write_text(text.replace("[machining.finish]\n",
+                                 "[machining.finish]\nchordal_tolerance_mm = 0.01\n"))
+    assert main(["check", str(spec)]) == 0
+    spec.write_text(text.replace("[machining.finish]\n",
+                                 "[machining.finish]\nchordal_tolerance_mm = -0.01\n"))
+    assert main(["check", str(spec)]) == 2
