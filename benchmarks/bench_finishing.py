@@ -22,10 +22,16 @@ cutter allowance and shank/holder may not touch it, and shank/holder keep
 
 Each child gets its own numba cache folder (``--cache DIR``, kept between
 invocations): the first invocation includes compilation on both sides, later ones
-are warm. Run:
+are warm.
+
+``--production`` runs this tree alone at production tolerances (the main job's
+settings with scallop ``PRODUCTION["scallop_mm"]`` = 0.01 mm and chordal tolerance
+``PRODUCTION["chordal_tolerance_mm"]`` = 0.01 mm, the spec's point spacing as the
+cap; all nine passages unless ``--passages``): the baseline has no chordal
+tolerance, so there is nothing to compare with; the re-check runs as above. Run:
 
     .venv/bin/python benchmarks/bench_finishing.py [--baseline-path /work/wt/base]
-        [--passages N] [--keep DIR] [--skip-baseline]
+        [--passages N] [--keep DIR] [--skip-baseline] [--production] [--no-recheck]
 """
 
 from __future__ import annotations
@@ -48,6 +54,8 @@ MACHINE = ROOT / "fixtures" / "machines" / "trunnion-500.toml"
 APT = ("finish_junction.apt", "finish_blade.apt", "finish_hub.apt")
 #: ``FinishOptions().clearance_mm`` and ``clearance_exact_mm`` defaults (as of 7e9ac6f).
 DEFAULT_CLEARANCE, DEFAULT_EXACT = 0.5, 3.0
+#: What ``--production`` sets over the main job's finishing options (mm).
+PRODUCTION = {"scallop_mm": 0.01, "chordal_tolerance_mm": 0.01}
 
 
 def main_job_settings(spec: Path) -> tuple[str, dict[str, Any]]:
@@ -162,6 +170,10 @@ def main() -> None:
     parser.add_argument("--skip-baseline", action="store_true")
     parser.add_argument("--passages", type=int, default=None, help="passages (default all)")
     parser.add_argument("--keep", type=Path, default=None, help="keep the outputs here")
+    parser.add_argument("--production", action="store_true",
+                        help="this tree alone at production tolerances (PRODUCTION)")
+    parser.add_argument("--no-recheck", action="store_true",
+                        help="skip the python-fcl re-check of the new APT poses")
     parser.add_argument("--cache", type=Path,
                         default=Path(tempfile.gettempdir()) / "impeller-cam-bench-numba")
     parser.add_argument("--child", type=Path, default=None, help=argparse.SUPPRESS)
@@ -172,6 +184,9 @@ def main() -> None:
         child(args.child, args.tool, json.loads(args.options))
         return
     tool, options = main_job_settings(SPEC)
+    if args.production:
+        options.update(PRODUCTION)
+        args.skip_baseline = True
     print(f"nine_blade, {tool}, {MACHINE.name}, options {options}, "
           f"passages {args.passages or 'all'}")
     with tempfile.TemporaryDirectory() as tmp:
@@ -198,14 +213,15 @@ def main() -> None:
         sides["new"] = run_side(ROOT, work / "new", args.cache / "new", tool, options,
                                 args.passages)
         print(f"{'side':<9} {'wall s':>8} {'cpu s':>8} {'points':>7} {'ms/pt wall':>10} "
-              f"{'ms/pt cpu':>9} {'A/C rev':>7} {'coll':>5} {'motion':>6} {'links':>5} "
-              f"{'min clear':>9}")
+              f"{'ms/pt cpu':>9} {'pt/s cpu':>8} {'A/C rev':>7} {'coll':>5} {'motion':>6} "
+              f"{'links':>5} {'min clear':>9}")
         for name, s in sides.items():
             rev = f"{s['reversals_after']['A']}/{s['reversals_after']['C']}"
             print(f"{name:<9} {s['wall']:>8.1f} {s['cpu']:>8.1f} {s['points']:>7} "
                   f"{1e3 * s['wall'] / s['points']:>10.2f} {1e3 * s['cpu'] / s['points']:>9.2f} "
-                  f"{rev:>7} {s['collisions']:>5} {s['motion_collisions']:>6} "
-                  f"{s['link_collisions']:>5} {s['min_clearance_mm']!s:>9}")
+                  f"{s['points'] / s['cpu']:>8.0f} {rev:>7} {s['collisions']:>5} "
+                  f"{s['motion_collisions']:>6} {s['link_collisions']:>5} "
+                  f"{s['min_clearance_mm']!s:>9}")
         if "baseline" in sides:
             old, new = sides["baseline"], sides["new"]
             print(f"speed-up: wall {old['wall'] / new['wall']:.1f}x, "
@@ -213,6 +229,8 @@ def main() -> None:
             same = [(work / "baseline" / a).read_bytes() == (work / "new" / a).read_bytes()
                     for a in APT]
             print("APT byte-identical to the baseline:", dict(zip(APT, same, strict=True)))
+        if args.no_recheck:
+            return
         from geometry.impeller import Impeller
         from geometry.spec import load_spec
 

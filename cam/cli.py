@@ -61,6 +61,11 @@ def finish_command(
     out: Annotated[Path, typer.Option("-o", "--out", help="Output folder.")],
     scallop: Annotated[float, typer.Option(help="Allowed scallop height, mm.")] = 0.02,
     spacing: Annotated[float, typer.Option(help="Point spacing along a path, mm.")] = 0.25,
+    chordal_tol: Annotated[
+        float | None,
+        typer.Option("--chordal-tol", help="Chordal tolerance, mm: each path's spacing "
+                     "is lowered below --spacing from its curvature (default: none)."),
+    ] = None,
     passages: Annotated[
         int | None, typer.Option(help="Finish only the first N passages (default: all).")
     ] = None,
@@ -77,6 +82,7 @@ def finish_command(
         plots=plots,
         scallop_mm=scallop,
         point_spacing_mm=spacing,
+        chordal_tolerance_mm=chordal_tol,
         passages=passages,
     )
 

@@ -1,8 +1,9 @@
 """A grid of lower bounds of the unsigned distance to a sampled surface.
 
 Built once per scene. Every surface sample marks its nearest grid node and
-``scipy.ndimage.distance_transform_edt`` gives each node the distance ``D`` to
-the nearest marked node. A sample lies within ``g sqrt(3) / 2`` of the node it
+the exact Euclidean distance transform (``edt.distance_transform``, numba; the
+values of ``scipy.ndimage.distance_transform_edt``) gives each node the distance
+``D`` to the nearest marked node. A sample lies within ``g sqrt(3) / 2`` of the node it
 marked and every surface point within the covering radius ``h`` of a sample, so
 the distance from a node to the surface is at least ``D - g sqrt(3)/2 - h``.
 Nodes in a narrow band (``D <= band``) get the exact distance to the triangles
@@ -26,7 +27,8 @@ from collections.abc import Callable
 import numba
 import numpy as np
 from numpy.typing import NDArray
-from scipy.ndimage import distance_transform_edt
+
+from cam.collision.edt import distance_transform
 
 #: Rounding allowance for storing bounds in float32, mm.
 _F32_ALLOWANCE = 1e-4
@@ -217,7 +219,7 @@ class DistanceGrid:
         marked = np.ones(shape, dtype=bool)  # EDT measures the distance to False cells
         node = np.rint((points - origin) / spacing).astype(np.int64)
         marked[node[:, 0], node[:, 1], node[:, 2]] = False
-        distance = distance_transform_edt(marked, sampling=spacing)
+        distance = distance_transform(marked, spacing)
         loss = 0.5 * math.sqrt(3.0) * spacing + covering_radius
         bounds = distance - loss
         if exact is not None:

@@ -404,6 +404,7 @@ class CollisionScene:
         clearance: bool = True,
         clearance_cap: float = math.inf,
         clearance_limits: Sequence[float] = (),
+        ends: PostureReport | None = None,
     ) -> PostureReport:
         """Check the motion between consecutive postures by subdivision.
 
@@ -423,16 +424,25 @@ class CollisionScene:
             clearance above ``bound`` is contact-free for shank and holder; the
             cutter is contact-free if also checked with ``cutter_allowance``
             lowered by ``bound``.
+
+        ``ends``: ``check_postures``' report on the same postures (same tool,
+        parts, roles, allowance; ``clearance_cap`` at least this one): only the
+        sub-samples between the postures are then checked.
         """
         tip_a, axis_a = validate_postures(tip, axis)
         if len(tip_a) < 2:
             raise InputError("a motion needs at least two postures", field="tip", value=len(tip_a))
         step_rad = math.radians(max_step_deg)
         sub_tip, sub_axis, starts = subdivide_motion(tip_a, axis_a, max_step_mm, step_rad)
+        between = np.ones(len(sub_tip), dtype=bool)
+        if ends is not None:
+            if len(ends) != len(tip_a):
+                raise InputError("ends must report on the postures", field="ends")
+            between[starts] = False
         report = self.check_postures(
             tool,
-            sub_tip,
-            sub_axis,
+            sub_tip[between],
+            sub_axis[between],
             parts=parts,
             cutter_allowance=cutter_allowance,
             cutter_roles=cutter_roles,
@@ -440,6 +450,8 @@ class CollisionScene:
             clearance_cap=clearance_cap,
             clearance_limits=clearance_limits,
         )
+        if ends is not None:
+            report = _merged(report, between, ends, starts)
         model = self.tool_model(tool, -float(cutter_allowance))
         first = starts[:-1]
         last = starts[1:]
@@ -472,3 +484,15 @@ class CollisionScene:
                 accepted=", ".join(self.roles),
             )
         return tuple(r for r in self.roles if r in roles)
+
+
+def _merged(inner: PostureReport, between: NDArray[np.bool_], ends: PostureReport,
+            starts: NDArray[np.int64]) -> PostureReport:
+    """One report of all sub-samples: ``inner`` where ``between``, ``ends`` at ``starts``."""
+    m = len(between)
+    collides, part, clear = np.zeros(m, dtype=bool), np.full(m, -1, np.int8), np.full(m, np.nan)
+    roles = np.full(m, None, dtype=object)
+    for index, source in ((np.flatnonzero(between), inner), (starts, ends)):
+        collides[index], part[index] = source.collides, source.part
+        clear[index], roles[index] = source.clearance, np.array(source.hit_role, dtype=object)
+    return PostureReport(collides, part, roles.tolist(), clear, 0.0, inner.checks)

@@ -33,7 +33,14 @@ from cam.tools import Tool
 if TYPE_CHECKING:
     from cam.collision import CollisionScene
 
-__all__ = ["InterferenceResult", "check_path", "interferes_at", "resolve_interference"]
+__all__ = [
+    "InterferenceResult",
+    "StepHint",
+    "check_path",
+    "first_interference",
+    "interferes_at",
+    "resolve_interference",
+]
 
 Array = NDArray[np.float64]
 
@@ -64,6 +71,11 @@ class InterferenceResult:
         than the motion check reports, mm.
     c_max : float
         Largest C increase eq. 7 allows on this path, rad.
+    checks : dict
+        Check counts of the collision service.
+    witnesses : (steps,) intp
+        Of a free result: per remedy step below the free one, a posture whose check
+        (posture, or motion from it) interfered (``StepHint``).
     """
 
     tip: Array
@@ -77,6 +89,7 @@ class InterferenceResult:
     motion_bound: float
     c_max: float
     checks: dict[str, int] = field(default_factory=dict)
+    witnesses: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
 
     @property
     def interfering_points(self) -> NDArray[np.intp]:
@@ -107,7 +120,8 @@ def check_path(scene: CollisionScene, tool: Tool, tip: Array, axis: Array,
                                     cutter_allowance=options.cutter_allowance_mm,
                                     # only compared with the limit: exact below it
                                     clearance_cap=options.clearance_mm,
-                                    clearance_limits=(options.clearance_mm,))
+                                    clearance_limits=(options.clearance_mm,),
+                                    ends=report)  # the postures are checked above
         mclear = np.asarray(motion.clearance, dtype=np.float64)
         motion_collides = np.asarray(motion.collides, dtype=bool) | (
             np.isfinite(mclear) & (mclear < options.clearance_mm))
@@ -121,8 +135,8 @@ def check_path(scene: CollisionScene, tool: Tool, tip: Array, axis: Array,
 
 
 def resolve_interference(scene: CollisionScene, tool: Tool, centre: Array, axis: Array,
-                         sign: float, c_max: Array, options: FinishOptions
-                         ) -> InterferenceResult:
+                         sign: float, c_max: Array, options: FinishOptions,
+                         hint: StepHint | None = None) -> InterferenceResult:
     """Check a path and, if it interferes, raise C by dC steps up to Cmax (eq. 7).
 
     Parameters
@@ -135,6 +149,12 @@ def resolve_interference(scene: CollisionScene, tool: Tool, centre: Array, axis:
         Sense of "away from the blade" about +Z (+1 / -1).
     c_max : (n,) float64
         Eq. 7 per point, rad; the path's limit is the smallest.
+    hint : StepHint, optional
+        The answer on a congruent path (the same path in another passage). It is
+        only used as a guess that is proven before it is taken: every step below
+        its free step must still interfere at its witness, and its free step must
+        be free in a full check. Then that step is the first free one, exactly
+        what the search without the hint returns; otherwise the search runs.
 
     Returns
     -------
@@ -142,37 +162,124 @@ def resolve_interference(scene: CollisionScene, tool: Tool, centre: Array, axis:
         The first interference-free step, or (still interfering) the step with the
         fewest interfering postures up to Cmax.
     """
-    radius = tool.radius
     limit = float(np.min(c_max))
+    step = math.radians(options.delta_c_deg)
+    if hint is not None and hint.points == len(centre) and \
+            hint.free_step * step <= limit + 1e-12:
+        taken = _take_hint(scene, tool, centre, axis, sign, step, hint, options)
+        if taken is not None:
+            taken.c_max = limit
+            return taken
+    return _search(scene, tool, centre, axis, sign, step, limit, options)
+
+
+@dataclass(frozen=True)
+class StepHint:
+    """What ``resolve_interference`` found on a path, as a guess for a congruent one.
+
+    Attributes
+    ----------
+    free_step : int
+        The first free remedy step k (C turned by ``k dC``; 0: none needed).
+    witnesses : (free_step,) intp
+        Per step below it, a posture whose check (the posture, or the motion from
+        it to the next) interfered.
+    points : int
+        Postures of the path (a hint is only tried on a path of this length).
+    """
+
+    free_step: int
+    witnesses: tuple[int, ...]
+    points: int
+
+    @classmethod
+    def of(cls, result: InterferenceResult) -> StepHint | None:
+        """The hint of a free result (None when no step was free)."""
+        if result.smaller_tool_needed or len(result.witnesses) != result.steps:
+            return None
+        return cls(result.steps, tuple(int(w) for w in result.witnesses), len(result.tip))
+
+
+def _turned(axis: Array, sign: float, k: int, step: float) -> Array:
+    return axis if k == 0 else rotate_about_z(axis, sign * k * step)
+
+
+def _take_hint(scene: CollisionScene, tool: Tool, centre: Array, axis: Array, sign: float,
+               step: float, hint: StepHint, options: FinishOptions
+               ) -> InterferenceResult | None:
+    """The result of step ``hint.free_step`` if the hint is proven, else None.
+
+    The witness postures of all lower steps are checked in one call; a step whose
+    witness posture is clear is then checked as ``first_interference`` does (the
+    motion from the witness).
+    """
+    radius = tool.radius
+    witnesses = np.asarray(hint.witnesses, dtype=np.intp)
+    if witnesses.size:
+        # the rows of each step's whole turned path (the very postures of a full check)
+        rows = np.stack([_turned(axis, sign, k, step)[w]
+                         for k, w in enumerate(witnesses.tolist())])
+        report = scene.check_postures(tool, centre[witnesses] - radius * rows, rows,
+                                      cutter_allowance=options.cutter_allowance_mm,
+                                      clearance_cap=options.clearance_mm,
+                                      clearance_limits=(options.clearance_mm,))
+        clear = np.asarray(report.clearance, dtype=np.float64)
+        posture_bad = np.asarray(report.collides) | (np.isfinite(clear)
+                                                     & (clear < options.clearance_mm))
+        for k in np.flatnonzero(~posture_bad).tolist():
+            turned = _turned(axis, sign, k, step)
+            if first_interference(scene, tool, centre - radius * turned, turned,
+                                  witnesses[k:k + 1], options) < 0:
+                return None
+    k = hint.free_step
+    turned = _turned(axis, sign, k, step)
+    trial = check_path(scene, tool, centre - radius * turned, turned, options)
+    if trial.smaller_tool_needed:
+        return None
+    trial.delta_c, trial.steps = k * step, k
+    trial.witnesses = np.asarray(hint.witnesses, dtype=np.intp)
+    return trial
+
+
+def _search(scene: CollisionScene, tool: Tool, centre: Array, axis: Array, sign: float,
+            step: float, limit: float, options: FinishOptions) -> InterferenceResult:
+    """The remedy's steps in order (``resolve_interference`` without a hint)."""
+    radius = tool.radius
     best = check_path(scene, tool, centre - radius * axis, axis, options)
     best.c_max = limit
     if not best.smaller_tool_needed:
         return best
-    step = math.radians(options.delta_c_deg)
 
     def full(k: int) -> InterferenceResult:
-        turned = rotate_about_z(axis, sign * k * step)
+        turned = _turned(axis, sign, k, step)
         trial = check_path(scene, tool, centre - radius * turned, turned, options)
         trial.delta_c, trial.steps, trial.c_max = k * step, k, limit
         return trial
 
     # A step that still interferes is only needed (with its count) if no step is
     # free. Each step is first probed at the postures and motions that interfered
-    # at the last fully checked step: one of them still interfering fails the step
-    # without checking the rest. Only a free-looking step is checked in full.
+    # at the last fully checked step (the last step's witness first): one of them
+    # still interfering fails the step without checking the rest. Only a
+    # free-looking step is checked in full.
     probe = best.interfering_points
+    witnesses = [int(probe[0])]
     failed: list[int] = []
     k = 0
     while (k + 1) * step <= limit + 1e-12:
         k += 1
-        turned = rotate_about_z(axis, sign * k * step)
-        if interferes_at(scene, tool, centre - radius * turned, turned, probe, options):
+        turned = _turned(axis, sign, k, step)
+        witness = first_interference(scene, tool, centre - radius * turned, turned, probe,
+                                     options, first=witnesses[-1])
+        if witness >= 0:
             failed.append(k)
+            witnesses.append(witness)
             continue
         trial = full(k)
         if not trial.smaller_tool_needed:
+            trial.witnesses = np.asarray(witnesses, dtype=np.intp)
             return trial
         probe = trial.interfering_points
+        witnesses.append(int(probe[0]))
         failed.append(-k)  # checked in full: kept below
         if trial.interfering_points.size < best.interfering_points.size:
             best = trial
@@ -201,19 +308,49 @@ def interferes_at(scene: CollisionScene, tool: Tool, tip: Array, axis: Array,
     points : (k,) intp
         Indices of postures to test (sorted).
     """
+    return first_interference(scene, tool, tip, axis, points, options) >= 0
+
+
+def first_interference(scene: CollisionScene, tool: Tool, tip: Array, axis: Array,
+                       points: NDArray[np.intp], options: FinishOptions,
+                       first: int | None = None) -> int:
+    """A posture of ``points`` that interferes (itself or the motion from it to the
+    next posture, with the rules of ``check_path``), or -1 when none does.
+
+    Parameters
+    ----------
+    tip, axis : (n, 3) float64
+        The whole path's postures.
+    points : (k,) intp
+        Indices of postures to test (sorted).
+    first : int, optional
+        Tested alone before the others (a likely witness; the answer "some posture
+        interferes" does not depend on it).
+
+    Notes
+    -----
+    Clearances are only compared with ``clearance_mm`` here, so they are asked
+    exact up to that (``clearance_cap``): the comparison is the one ``check_path``
+    makes with its values exact up to ``clearance_exact_mm``.
+    """
     if not points.size:
-        return False
+        return -1
+    if first is not None and len(points) > 1 and np.any(points == first):
+        alone = np.array([first], dtype=np.intp)
+        if first_interference(scene, tool, tip, axis, alone, options) >= 0:
+            return int(first)
+        points = points[points != first]
     report = scene.check_postures(tool, tip[points], axis[points],
                                   cutter_allowance=options.cutter_allowance_mm,
-                                  clearance_cap=options.clearance_exact_mm,
+                                  clearance_cap=options.clearance_mm,
                                   clearance_limits=(options.clearance_mm,))
     clear = np.asarray(report.clearance, dtype=np.float64)
-    if (np.asarray(report.collides) | (np.isfinite(clear)
-                                       & (clear < options.clearance_mm))).any():
-        return True
+    bad = np.asarray(report.collides) | (np.isfinite(clear) & (clear < options.clearance_mm))
+    if bad.any():
+        return int(points[np.argmax(bad)])
     segments = points[points < len(tip) - 1]
     if not segments.size:
-        return False
+        return -1
     # runs of consecutive segments, each checked as one motion
     breaks = np.flatnonzero(np.diff(segments) > 1) + 1
     for run in np.split(segments, breaks):
@@ -225,7 +362,8 @@ def interferes_at(scene: CollisionScene, tool: Tool, tip: Array, axis: Array,
                                     clearance_cap=options.clearance_mm,
                                     clearance_limits=(options.clearance_mm,))
         mclear = np.asarray(motion.clearance, dtype=np.float64)
-        if (np.asarray(motion.collides) | (np.isfinite(mclear)
-                                           & (mclear < options.clearance_mm))).any():
-            return True
-    return False
+        moving = np.asarray(motion.collides) | (np.isfinite(mclear)
+                                                & (mclear < options.clearance_mm))
+        if moving.any():
+            return lo + int(np.argmax(moving))
+    return -1

@@ -46,6 +46,11 @@ class FinishOptions:
     ----------
     point_spacing_mm : float
         Largest distance between consecutive cutter-centre points, mm.
+    chordal_tolerance_mm : float or None
+        Largest distance of the straight moves between consecutive ball centres
+        from the ideal centre path, mm: each path's spacing is lowered below
+        ``point_spacing_mm`` from its curvature (cam/finishing/spacing.py). None:
+        the spacing is ``point_spacing_mm``.
     scallop_mm : float
         Allowed scallop height of the blade-side and hub passes, mm.
     c_tilt_deg : float
@@ -125,6 +130,7 @@ class FinishOptions:
     """
 
     point_spacing_mm: float = 0.25
+    chordal_tolerance_mm: float | None = None
     scallop_mm: float = 0.02
     c_tilt_deg: float = 1.5
     min_normal_angle_deg: float = 5.0
@@ -176,6 +182,12 @@ class FinishOptions:
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
                 raise InputError("must be a number >= 0", field=name, value=value,
                                  accepted="a finite number >= 0")
+        chordal = self.chordal_tolerance_mm
+        if chordal is not None and not (isinstance(chordal, int | float)
+                                        and not isinstance(chordal, bool)
+                                        and math.isfinite(chordal) and chordal > 0):
+            raise InputError("must be a positive number", field="chordal_tolerance_mm",
+                             value=chordal, accepted="a finite number > 0 (mm) or none")
         if not self.clearance_exact_mm >= self.clearance_mm:
             raise InputError("must be at least clearance_mm", field="clearance_exact_mm",
                              value=self.clearance_exact_mm,

@@ -41,6 +41,7 @@ from cam.finishing.paths import (
     subset_path,
 )
 from cam.finishing.posture import rotate_about_z
+from cam.finishing.spacing import chord_spacing
 from geometry.revolved import RevolvedSurface
 from geometry.surfaces import BladeSurface, ImpellerSurfaces
 from impeller_cam.errors import InputError
@@ -70,7 +71,7 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
                stepover: float, passage: int = 0, label: str = "",
                s_limits: tuple[float, float] | None = None,
                keep_clear: BladeSurface | None = None, reach: float = 0.0,
-               extend_lead: bool = True) -> list[CutterPath]:
+               extend_lead: bool = True, chordal: float | None = None) -> list[CutterPath]:
     """Hub passes between two junction paths of a passage, leading to trailing edge.
 
     Parameters
@@ -89,6 +90,10 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
         Start at the earlier of the two junction paths' starts (True) or at the later
         one (False: a splitter's leading edge, where the inlet passes take over). The
         passes always end at the later of the two ends.
+    chordal : float, optional
+        Chordal tolerance, mm: the spacing in s is lowered (for all passes) so that
+        the chords of every pass stay within it (``spacing.chord_spacing`` of each
+        pass, densely sampled).
     """
     sa, pa = hub_foot(hub, first.centre)
     sb, pb = hub_foot(hub, second.centre)
@@ -120,6 +125,11 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
     arc = np.concatenate([[0.0], np.cumsum(speed)])
     step = max(float(np.linalg.norm(np.diff(p.centre, axis=0), axis=1).max())
                for p in (first, second))
+    if chordal is not None:
+        # (the +theta wall lies less than a turn ahead of the -theta wall: below)
+        fine_a, fine_b = _extend(fine, sa, pa), _extend(fine, sb, pb)
+        fine_b -= 2.0 * math.pi * np.floor((fine_b[0] - fine_a[0]) / (2.0 * math.pi))
+        step = min(step, _hub_chordal(hub, radius, stepover, fine, fine_a, fine_b, chordal))
     count = max(int(math.ceil(arc[-1] / step)) + 1, 2)
     s = np.interp(np.linspace(0.0, arc[-1], count), arc, fine)
     phi_a = _extend(s, sa, pa)
@@ -217,6 +227,20 @@ def hub_passes(first: CutterPath, second: CutterPath, hub: RevolvedSurface, radi
     return out
 
 
+def _hub_chordal(hub: RevolvedSurface, radius: float, stepover: float, s: Array,
+                 phi_a: Array, phi_b: Array, tolerance: float) -> float:
+    """Largest step along the hub passes keeping their chords within ``tolerance``.
+
+    Every pass ``phi = (1 - lambda) phi_a + lambda phi_b`` (and the two boundaries)
+    sampled at ``s`` (dense); mm.
+    """
+    width = hub.meridian(s)[:, 1] * (phi_b - phi_a)
+    passes = max(int(math.ceil(float(width.max()) / stepover)), 1)
+    return min(chord_spacing(hub.offset(s, (1.0 - lam) * phi_a + lam * phi_b, radius),
+                             tolerance, math.inf)
+               for lam in np.linspace(0.0, 1.0, passes + 1))
+
+
 def _extend(x: Array, xp: Array, fp: Array) -> Array:
     """``np.interp`` inside ``xp``, linear continuation of the end segments outside."""
     out = np.interp(x, xp, fp)
@@ -232,11 +256,14 @@ def _interp_rows(x: Array, xp: Array, rows: Array) -> Array:
 
 def passage_paths(surfaces: ImpellerSurfaces, radius: float, spacing: float,
                   stepover: float, *, blade: bool = True, hub: bool = True,
-                  reach: float = 0.0) -> list[CutterPath]:
+                  reach: float = 0.0, chordal: float | None = None) -> list[CutterPath]:
     """All finishing paths of passage 0: junctions, then blade passes, then hub passes.
 
     ``reach`` (mm) is the flute length above the ball centre: the inlet hub passes
     ahead of a splitter keep ball and flutes clear of it (``hub_passes``).
+    ``chordal`` (mm, optional): the chordal tolerance; each path's (each group of
+    blade or hub passes') spacing is lowered below ``spacing`` so that its chords
+    stay within it (``cam/finishing/spacing.py``).
 
     Raises
     ------
@@ -254,27 +281,27 @@ def passage_paths(surfaces: ImpellerSurfaces, radius: float, spacing: float,
     pairs = passage_walls(surfaces)
     junctions: list[tuple[CutterPath, CutterPath]] = []
     for a, b in pairs:
-        junctions.append((junction_path(a, b, surfaces.hub, radius, spacing),
-                          junction_path(b, a, surfaces.hub, radius, spacing)))
+        junctions.append((junction_path(a, b, surfaces.hub, radius, spacing, chordal=chordal),
+                          junction_path(b, a, surfaces.hub, radius, spacing, chordal=chordal)))
     out: list[CutterPath] = [p for pair in junctions for p in pair]
     if blade:
         for a, b in pairs:
-            out += blade_passes(a, b, surfaces.hub, radius, stepover, spacing)
-            out += blade_passes(b, a, surfaces.hub, radius, stepover, spacing)
+            out += blade_passes(a, b, surfaces.hub, radius, stepover, spacing, chordal=chordal)
+            out += blade_passes(b, a, surfaces.hub, radius, stepover, spacing, chordal=chordal)
     if hub:
         if len(junctions) == 1:
-            out += hub_passes(*junctions[0], surfaces.hub, radius, stepover)
+            out += hub_passes(*junctions[0], surfaces.hub, radius, stepover, chordal=chordal)
         else:
             (ja, js), (jp, jb) = junctions
             out += hub_passes(ja, js, surfaces.hub, radius, stepover, label="a",
-                              extend_lead=False)
+                              extend_lead=False, chordal=chordal)
             out += hub_passes(jp, jb, surfaces.hub, radius, stepover, label="b",
-                              extend_lead=False)
+                              extend_lead=False, chordal=chordal)
             # inlet region ahead of the splitter: between the main blades, each pass
             # ending where its ball would come within R of the splitter
             s_split = max(hub_foot(surfaces.hub, js.centre)[0][0],
                           hub_foot(surfaces.hub, jp.centre)[0][0])
             out += hub_passes(ja, jb, surfaces.hub, radius, stepover, label="i",
                               s_limits=(0.0, s_split), keep_clear=surfaces.splitters[0],
-                              reach=reach)
+                              reach=reach, chordal=chordal)
     return out

@@ -21,11 +21,13 @@ Only passage 0 is computed; the others are exact rotations (``rotate_path``).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
+from cam.finishing.spacing import chord_spacing, refined_spacing
 from geometry.revolved import RevolvedSurface
 from geometry.surfaces import BladeSurface, ImpellerSurfaces, rotation_z
 from impeller_cam.errors import InputError
@@ -259,6 +261,34 @@ def passage_walls(surfaces: ImpellerSurfaces) -> list[tuple[Wall, Wall]]:
             (Wall(splitter, +1, "splitter0.pressure"), last)]
 
 
+def _blade_chordal(wall: Wall, hub: RevolvedSurface, radius: float, stepover: float,
+                   u0: Array, top0: Array, spacing: float, tolerance: float) -> float:
+    """Spacing along the top blade pass that keeps every pass's chords within
+    ``tolerance``, mm (at most ``spacing``).
+
+    Per pass the allowed chord comes from its own curvature; the passes share u, so
+    a pass that is longer than the top one per unit of u gets proportionally longer
+    chords: the allowed chord is divided by the largest such ratio.
+    """
+    def measure(step: float) -> float:
+        u = _resample(u0, top0, step)
+        v_junction = _solve_v(wall, hub, radius, u)
+        span = np.linalg.norm(wall.blade.side(u, 0.0, wall.side)
+                              - wall.blade.side(u, v_junction, wall.side), axis=1)
+        count = int(math.ceil(float(span.max()) / stepover))
+        top = wall.blade.offset(u, np.zeros_like(u), wall.side, radius)
+        top_step = np.maximum(np.linalg.norm(np.diff(top, axis=0), axis=1), 1e-300)
+        allowed, ratio = math.inf, 1.0
+        for k in range(count + 1):
+            curve = wall.blade.offset(u, v_junction * (1.0 - k / count), wall.side, radius)
+            allowed = min(allowed, chord_spacing(curve, tolerance, math.inf))
+            ratio = max(ratio, float((np.linalg.norm(np.diff(curve, axis=0), axis=1)
+                                      / top_step).max()))
+        return min(spacing, allowed / ratio)
+
+    return refined_spacing(measure, spacing)
+
+
 def _offset_v_direction(wall: Wall, u: Array, v: Array, radius: float) -> Array:
     """Unit direction of the offset surface along v, towards the shroud (v decreasing)."""
     up = wall.blade.offset(u, v - _FD_V, wall.side, radius)
@@ -304,6 +334,24 @@ def _resample(u_coarse: Array, points: Array, spacing: float) -> Array:
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
     count = max(int(math.ceil(1.01 * arc[-1] / spacing)) + 1, 4)
     return np.asarray(np.interp(np.linspace(0.0, arc[-1], count), arc, u_coarse))
+
+
+def _chordal(curve: Callable[[Array], Array], u0: Array, c0: Array, spacing: float,
+             tolerance: float | None) -> float:
+    """Spacing of a path from its chordal tolerance (``spacing``: the cap), mm.
+
+    ``curve(u)`` evaluates the path at parameters ``u``; ``u0, c0`` a coarse
+    sampling of it. The curvature is measured on the curve densely sampled
+    (``spacing.refined_spacing``, ``spacing.chord_spacing``).
+    """
+    if tolerance is None:
+        return spacing
+    chordal = tolerance
+
+    def measure(step: float) -> float:
+        return chord_spacing(curve(_resample(u0, c0, step)), chordal, spacing)
+
+    return refined_spacing(measure, spacing)
 
 
 def _beyond_ends(wall: Wall, hub: RevolvedSurface, radius: float, u: Array) -> Array:
@@ -363,7 +411,8 @@ def hub_foot(hub: RevolvedSurface, centre: Array) -> tuple[Array, Array]:
 
 
 def junction_path(wall: Wall, opposite: Wall, hub: RevolvedSurface, radius: float,
-                  spacing: float, passage: int = 0) -> CutterPath:
+                  spacing: float, passage: int = 0, chordal: float | None = None
+                  ) -> CutterPath:
     """Ball-centre path along the hub/``wall`` junction, leading to trailing edge.
 
     Parameters
@@ -375,6 +424,9 @@ def junction_path(wall: Wall, opposite: Wall, hub: RevolvedSurface, radius: floa
         Ball radius R, mm.
     spacing : float
         Largest distance between consecutive centres, mm.
+    chordal : float, optional
+        Chordal tolerance, mm: the spacing is lowered (for the whole path) so that
+        the chords between centres stay within it (``spacing.chord_spacing``).
 
     Returns
     -------
@@ -384,6 +436,9 @@ def junction_path(wall: Wall, opposite: Wall, hub: RevolvedSurface, radius: floa
     lo, hi = _touching_range(wall, hub, radius)
     u0 = np.linspace(lo, hi, _COARSE)
     c0 = wall.blade.offset(u0, _solve_v(wall, hub, radius, u0), wall.side, radius)
+    spacing = _chordal(lambda u: wall.blade.offset(u, _solve_v(wall, hub, radius, u),
+                                                   wall.side, radius),
+                       u0, c0, spacing, chordal)
     u = _resample(u0, c0, spacing)
     v = _solve_v(wall, hub, radius, u)
     u = _resample(u, wall.blade.offset(u, v, wall.side, radius), spacing)  # second pass
@@ -404,7 +459,8 @@ def junction_path(wall: Wall, opposite: Wall, hub: RevolvedSurface, radius: floa
 
 
 def blade_passes(wall: Wall, opposite: Wall, hub: RevolvedSurface, radius: float,
-                 stepover: float, spacing: float, passage: int = 0) -> list[CutterPath]:
+                 stepover: float, spacing: float, passage: int = 0,
+                 chordal: float | None = None) -> list[CutterPath]:
     """Passes up the blade side from the junction to the tip (v = 0), hub to shroud.
 
     The span from the junction ball's blade contact to the tip is split into
@@ -412,9 +468,15 @@ def blade_passes(wall: Wall, opposite: Wall, hub: RevolvedSurface, radius: float
     neighbouring passes are further apart (along the ruling) than the stepover. The
     passes run over the whole chord, u in [0, 1] (beyond a trimmed junction the lowest
     pass follows the ball touching the hub's tangent extension, above the real hub).
+
+    The passes share their u values, spaced by arc length along the top pass. With a
+    chordal tolerance (mm) that spacing is lowered until every pass's chords stay
+    within it (``_blade_chordal``).
     """
     u0 = np.linspace(0.0, 1.0, _COARSE)
     top0 = wall.blade.offset(u0, np.zeros_like(u0), wall.side, radius)
+    if chordal is not None:
+        spacing = _blade_chordal(wall, hub, radius, stepover, u0, top0, spacing, chordal)
     u = _resample(u0, top0, spacing)
     u = _resample(u, wall.blade.offset(u, np.zeros_like(u), wall.side, radius), spacing)
     v_junction = _solve_v(wall, hub, radius, u)

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cam.finishing.interference import InterferenceResult, resolve_interference
+from cam.finishing.interference import InterferenceResult, StepHint, resolve_interference
 from cam.finishing.options import FinishOptions, scallop_stepover
 from cam.finishing.passes import passage_paths
 from cam.finishing.paths import CutterPath, blade_distance, rotate_path, subset_path
@@ -106,6 +106,9 @@ class PathResult:
         Postures still breaking the normal-angle or lead/tilt rule.
     trimmed : int
         Points cut from the end of an open-ended pass (``CutterPath.open_end``).
+    step_hint : StepHint or None
+        What the eq. 7 remedy found (a proven-before-used guess for the same path in
+        the next passage; ``interference.StepHint``).
     """
 
     path: CutterPath
@@ -126,6 +129,7 @@ class PathResult:
     repair: RepairResult | None = None
     rule_points: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
     trimmed: int = 0
+    step_hint: StepHint | None = None
 
     def summary(self, options: FinishOptions) -> dict[str, Any]:
         """This path's entry of finish.json (mm, deg)."""
@@ -258,16 +262,18 @@ _TRIM_ROUNDS = 3
 
 
 def finish_path(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionScene,
-                options: FinishOptions, surfaces: ImpellerSurfaces | None = None
-                ) -> PathResult:
+                options: FinishOptions, surfaces: ImpellerSurfaces | None = None,
+                hint: StepHint | None = None) -> PathResult:
     """Run M3 on one cutter-centre path (see the module docstring).
 
     An open-ended pass (``path.open_end``: hub passes ahead of a splitter) whose
     postures from some point on cannot be made to meet every rule is shortened to end
     before that point (if that keeps at least half of it) and finished again; the
-    number of points cut is ``PathResult.trimmed``.
+    number of points cut is ``PathResult.trimmed``. ``hint`` (the same path's
+    ``step_hint`` in another passage) only saves checks: the result is the same
+    without it (``interference.resolve_interference``).
     """
-    result = _finish_once(path, tool, kins, scene, options, surfaces)
+    result = _finish_once(path, tool, kins, scene, options, surfaces, hint)
     length = len(path)
     for _ in range(_TRIM_ROUNDS if path.open_end else 0):
         bad = np.union1d(result.interference.interfering_points, result.rule_points)
@@ -281,8 +287,8 @@ def finish_path(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collision
 
 
 def _finish_once(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionScene,
-                 options: FinishOptions, surfaces: ImpellerSurfaces | None = None
-                 ) -> PathResult:
+                 options: FinishOptions, surfaces: ImpellerSurfaces | None = None,
+                 hint: StepHint | None = None) -> PathResult:
     radius = tool.radius
     tangent = path.tangent
     axis0, sign = initial_axes(path.reference_axis, path.away, math.radians(options.c_tilt_deg))
@@ -296,7 +302,8 @@ def _finish_once(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collisio
     axis, joints, smoothing = remove_reversals(path.centre, axis0, joints0, kins, radius,
                                                options, path.name)
     limits = c_max(path.centre, path.reference_axis, path.opposite_tip)
-    inter = resolve_interference(scene, tool, path.centre, axis, sign, limits, options)
+    inter = resolve_interference(scene, tool, path.centre, axis, sign, limits, options, hint)
+    step_hint = StepHint.of(inter)
     if inter.delta_c:
         joints = _inverse(kins, inter.tip, inter.axis, path.name)
     rules = PostureRules(path.centre, path.normal, tangent, path.away,
@@ -319,7 +326,8 @@ def _finish_once(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collisio
                                    surfaces.spec.pitch)
     return PathResult(path, inter.tip, inter.axis, joints0, joints, before, after,
                       points_before, smoothing, inter, deviation, junction, lead, tilt,
-                      angle_between(inter.axis, path.normal), repair, rule_points)
+                      angle_between(inter.axis, path.normal), repair, rule_points,
+                      step_hint=step_hint)
 
 
 @dataclass
@@ -410,7 +418,8 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     stepover = scallop_stepover(tool.radius, options.scallop_mm)
     base = passage_paths(surfaces, tool.radius, options.point_spacing_mm, stepover,
                          blade=options.blade_passes, hub=options.hub_passes,
-                         reach=max(tool.flute_length - tool.radius, 0.0))
+                         reach=max(tool.flute_length - tool.radius, 0.0),
+                         chordal=options.chordal_tolerance_mm)
     blades = surfaces.spec.blades
     count = blades if options.passages is None else min(options.passages, blades)
     ordered: list[CutterPath] = []
@@ -419,8 +428,14 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
             ordered += [p if k == 0 else rotate_path(p, k, surfaces.spec.pitch)
                         for p in base if p.operation == op]
     results: list[PathResult] = []
+    # the same path in the previous passage: its remedy step is tried first (proven
+    # before it is used, so the result is the same as without it)
+    hints: dict[str, StepHint | None] = {}
     for i, path in enumerate(ordered):
-        results.append(finish_path(path, tool, kins, scene, options, surfaces))
+        key = path.name.split(".", 1)[1]
+        results.append(finish_path(path, tool, kins, scene, options, surfaces,
+                                   hints.get(key)))
+        hints[key] = results[-1].step_hint
         if progress is not None:
             progress(i + 1, len(ordered), path.name)
     return FinishResult(results, tool, options, scene_source)

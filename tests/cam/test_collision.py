@@ -638,6 +638,32 @@ def test_motion_bound_holds_on_random_motions(impeller_scene: CollisionScene) ->
             assert coarse.collides[0] or coarse.clearance[0] <= coarse.bound
 
 
+def test_motion_with_known_ends_gives_the_same_answers(impeller_scene: CollisionScene) -> None:
+    """``ends`` (the postures' own report, a higher clearance cap) only saves checks."""
+    hub = impeller_scene.meshes["hub"]
+    rng = np.random.default_rng(23)
+    face = np.sort(rng.choice(np.flatnonzero(hub.face_normals[:, 2] > 0.1), 120))
+    centre = hub.triangles_center[face] + 3.2 * hub.face_normals[face]
+    axis = hub.face_normals[face] + rng.normal(0, 0.3, (120, 3))
+    axis /= np.linalg.norm(axis, axis=1)[:, None]
+    tip = centre - 3.0 * axis
+    options = {"cutter_allowance": 0.05, "clearance_cap": 2.0, "clearance_limits": (2.0,)}
+    ends = impeller_scene.check_postures(BALL, tip, axis, **dict(options, clearance_cap=3.0))
+    plain = impeller_scene.check_motion(BALL, tip, axis, max_step_mm=2.0, max_step_deg=3.0,
+                                        **options)
+    known = impeller_scene.check_motion(BALL, tip, axis, max_step_mm=2.0, max_step_deg=3.0,
+                                        ends=ends, **options)
+    assert np.array_equal(known.collides, plain.collides)
+    assert np.array_equal(known.part, plain.part)
+    assert known.hit_role == plain.hit_role
+    assert np.array_equal(known.clearance < 2.0, plain.clearance < 2.0)
+    assert 0 < (plain.collides | (plain.clearance < 2.0)).sum() < len(plain)  # a real mix
+    assert known.checks["kernel"] < plain.checks["kernel"]  # the ends were not checked again
+    with pytest.raises(InputError, match="ends"):
+        impeller_scene.check_motion(BALL, tip[:5], axis[:5], max_step_mm=2.0, max_step_deg=3.0,
+                                    ends=ends)
+
+
 # -- bad input -----------------------------------------------------------------------
 
 
