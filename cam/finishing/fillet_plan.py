@@ -1,0 +1,112 @@
+"""The fillet finishing operation: its tool and its finished paths.
+
+* ``choose_fillet_tool``: the largest ball of a tool library whose radius is at most
+  the fillet radius (a larger ball cannot reach into the fillet); ``None`` when the
+  library has none.
+* ``plan_fillet``: the pencil passes of ``fillet_paths.fillet_passes`` of every
+  passage, each through the same M3 procedure as the junction paths
+  (``plan.finish_path``: postures, reverse movements removed, interference remedy
+  and repair), with the fillet tool. The result is a ``FinishResult`` of its own
+  (its tool differs from the blade and hub finishing tool): one more APT file,
+  ``finish_fillet.apt``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+from cam.collision import CollisionScene
+from cam.finishing.fillet_paths import fillet_passes
+from cam.finishing.options import FinishOptions
+from cam.finishing.paths import CutterPath, rotate_path
+from cam.finishing.plan import FinishResult, PathResult, finish_path
+from cam.tools import DEFAULT_LIBRARY, Tool, load_tool_library
+from geometry.surfaces import ImpellerSurfaces
+from impeller_cam.errors import InputError
+from postproc.kinematics import Kinematics
+
+__all__ = ["check_fillet_tool", "choose_fillet_tool", "plan_fillet"]
+
+#: A ball this much larger than the fillet still counts as "equal" (rounding), mm.
+RADIUS_SLACK = 1e-6
+
+
+def choose_fillet_tool(fillet_radius: float, library: str | Path | None = None
+                       ) -> Tool | None:
+    """The largest ball-end mill of ``library`` with radius at most ``fillet_radius``.
+
+    Parameters
+    ----------
+    fillet_radius : float
+        Fillet radius r_f, mm.
+    library : str or Path, optional
+        Tool library TOML (default: the bundled library).
+
+    Returns
+    -------
+    Tool or None
+        ``None`` when the design has no fillet or no ball fits; ties: the first in
+        the library.
+    """
+    if fillet_radius <= 0:
+        return None
+    tools = load_tool_library(Path(library or DEFAULT_LIBRARY)).values()
+    fits = [t for t in tools if t.shape == "ball" and t.radius <= fillet_radius + RADIUS_SLACK]
+    if not fits:
+        return None
+    best = max(t.radius for t in fits)
+    return next(t for t in fits if t.radius == best)
+
+
+def check_fillet_tool(tool: Tool, fillet_radius: float) -> None:
+    """``InputError`` unless ``tool`` is a ball that fits a fillet of ``fillet_radius`` mm."""
+    if fillet_radius <= 0:
+        raise InputError("the design has no blade-to-hub fillet to finish",
+                         field="fillet_tool", value=tool.name,
+                         accepted="no fillet tool, or a design with blade.fillet_radius_mm > 0")
+    if tool.shape != "ball":
+        raise InputError("fillet finishing needs a ball-end mill", field="fillet_tool",
+                         value=tool.name, accepted="a tool of type 'ball'")
+    if tool.radius > fillet_radius + RADIUS_SLACK:
+        raise InputError(f"the fillet tool's ball (radius {tool.radius:g} mm) is larger "
+                         f"than the fillet (radius {fillet_radius:g} mm)",
+                         field="fillet_tool", value=tool.name,
+                         accepted=f"a ball of diameter <= {2.0 * fillet_radius:g} mm")
+
+
+def plan_fillet(surfaces: ImpellerSurfaces, tool: Tool, main_radius: float, kins: Kinematics,
+                scene: CollisionScene, options: FinishOptions, *, scene_source: str,
+                progress: Callable[[int, int, str], None] | None = None) -> FinishResult:
+    """Finish the fillet pencil passes of every passage with ``tool``.
+
+    Parameters
+    ----------
+    surfaces : ImpellerSurfaces
+    tool : Tool
+        Ball-end mill of radius at most the fillet radius (``check_fillet_tool``).
+    main_radius : float
+        Ball radius of the blade and hub finishing, mm (how far beyond the fillet the
+        passes go, ``fillet_paths``).
+    kins, scene, options, scene_source, progress
+        As ``plan.plan_finishing`` (the same options: scallop, spacing, rules).
+
+    Returns
+    -------
+    FinishResult
+        Paths of operation ``"fillet"`` in passage order.
+    """
+    check_fillet_tool(tool, float(surfaces.spec.fillet_radius))
+    base = fillet_passes(surfaces, tool.radius, main_radius, options.scallop_mm,
+                         options.point_spacing_mm)
+    blades = surfaces.spec.blades
+    count = blades if options.passages is None else min(options.passages, blades)
+    ordered: list[CutterPath] = []
+    for k in range(count):
+        ordered += [p if k == 0 else rotate_path(p, k, surfaces.spec.pitch) for p in base]
+    results: list[PathResult] = []
+    for i, path in enumerate(ordered):
+        results.append(finish_path(path, tool, kins, scene, options, surfaces))
+        if progress is not None:
+            progress(i + 1, len(ordered), path.name)
+    return FinishResult(results, tool, options, scene_source)
