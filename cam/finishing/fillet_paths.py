@@ -60,6 +60,11 @@ _FD = 1e-6
 _STEP_BISECTIONS = 60
 #: Ball/fillet radius difference below which the paper's single spine pass is used, mm.
 _SAME_RADIUS = 1e-6
+#: Initial lean of the tool axis from the blade's ruling away from the blade face at
+#: the contact (about the feed direction), deg: round the edges the face turns with
+#: the pass, and an axis along the side's ruling turned about C (the junction's
+#: initial posture) put the flutes into the edge face (nine_blade's cut trailing edge).
+LEAN_DEG = 5.0
 
 
 def _unit(a: Array) -> Array:
@@ -185,6 +190,13 @@ def fillet_section(surfaces: ImpellerSurfaces, wall: Wall, loop_parameter: Array
     return FilletSection(loop, surfaces.hub, wall.blade, spec.fillet_radius, loop_parameter)
 
 
+def lean_away(ruling: Array, normal: Array, angle: float) -> Array:
+    """Unit ``ruling`` rows turned by ``angle`` rad towards ``normal`` (its part normal
+    to the ruling), ``(n, 3)``."""
+    across = _unit(normal - np.einsum("ij,ij->i", normal, ruling)[:, None] * ruling)
+    return _unit(math.cos(angle) * ruling + math.sin(angle) * across)
+
+
 def _stations(section: FilletSection, fillet_radius: float, radius: float, main_radius: float,
               scallop: float) -> list[tuple[str, Array]]:
     """Passes across the fillet as ``(kind, value (n,))``, blade side first.
@@ -297,12 +309,13 @@ def fillet_passes(surfaces: ImpellerSurfaces, radius: float, main_radius: float,
         curve_u = wall.curve_u(section.u)
         tip = opposite.tip_points(curve_u)
         stations = _stations(section, fillet_radius, radius, main_radius, scallop)
+        leaned = lean_away(section.ruling, section.blade_normal, math.radians(LEAN_DEG))
         for k, (kind, value) in enumerate(stations):
             centre, normal = _pass_points(surfaces, wall, section, fillet_radius, radius,
                                           kind, value)
             out.append(CutterPath(
                 name=f"p{passage}.fillet.{wall.label}.{k:02d}", operation="fillet",
                 passage=passage, centre=centre, normal=normal,
-                reference_axis=section.ruling, away=section.blade_normal,
+                reference_axis=leaned, away=section.blade_normal,
                 opposite_tip=tip, curve_u=curve_u, blade_v=section.v, wall=wall))
     return out

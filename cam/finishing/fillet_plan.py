@@ -9,6 +9,12 @@
   and repair), with the fillet tool. The result is a ``FinishResult`` of its own
   (its tool differs from the blade and hub finishing tool): one more APT file,
   ``finish_fillet.apt``.
+* A pass whose first or last postures still break a rule after the remedy and the
+  repair (round a cut trailing edge, where the pass turns from the side onto the
+  edge face) is shortened at that end, to start after / end before them (at most
+  ``TRIM_ROUNDS`` times, never below half its points), like the open-ended hub
+  passes: ``trimmed_points`` in finish.json; what it leaves shows in the
+  verification.
 """
 
 from __future__ import annotations
@@ -16,10 +22,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
+
 from cam.collision import CollisionScene
 from cam.finishing.fillet_paths import fillet_passes
 from cam.finishing.options import FinishOptions
-from cam.finishing.paths import CutterPath, rotate_path
+from cam.finishing.paths import CutterPath, rotate_path, subset_path
 from cam.finishing.plan import FinishResult, PathResult, finish_path
 from cam.tools import DEFAULT_LIBRARY, Tool, load_tool_library
 from geometry.surfaces import ImpellerSurfaces
@@ -30,6 +38,8 @@ __all__ = ["check_fillet_tool", "choose_fillet_tool", "plan_fillet"]
 
 #: A ball this much larger than the fillet still counts as "equal" (rounding), mm.
 RADIUS_SLACK = 1e-6
+#: A pass is shortened at its ends at most this many times.
+TRIM_ROUNDS = 3
 
 
 def choose_fillet_tool(fillet_radius: float, library: str | Path | None = None
@@ -75,6 +85,34 @@ def check_fillet_tool(tool: Tool, fillet_radius: float) -> None:
                          accepted=f"a ball of diameter <= {2.0 * fillet_radius:g} mm")
 
 
+def finish_trimmed(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionScene,
+                   options: FinishOptions, surfaces: ImpellerSurfaces) -> PathResult:
+    """``finish_path``, then shortened at either end where postures break a rule.
+
+    Offending postures in the first half move the start past the last of them, those
+    in the second half the end before the first of them; finished again (at most
+    ``TRIM_ROUNDS`` times, while at least half the points remain). ``trimmed`` is
+    the number of points cut.
+    """
+    result = finish_path(path, tool, kins, scene, options, surfaces)
+    length = len(path)
+    for _ in range(TRIM_ROUNDS):
+        bad = np.union1d(result.interference.interfering_points, result.rule_points)
+        if not bad.size:
+            break
+        size = len(result.path)
+        head, tail = bad[bad < size // 2], bad[bad >= size // 2]
+        first = int(head.max()) + 1 if head.size else 0
+        last = int(tail.min()) if tail.size else size
+        if last - first < max(2, (length + 1) // 2):
+            break
+        keep = np.arange(first, last, dtype=np.intp)
+        result = finish_path(subset_path(result.path, keep), tool, kins, scene, options,
+                             surfaces)
+    result.trimmed = length - len(result.path)
+    return result
+
+
 def plan_fillet(surfaces: ImpellerSurfaces, tool: Tool, main_radius: float, kins: Kinematics,
                 scene: CollisionScene, options: FinishOptions, *, scene_source: str,
                 progress: Callable[[int, int, str], None] | None = None) -> FinishResult:
@@ -106,7 +144,7 @@ def plan_fillet(surfaces: ImpellerSurfaces, tool: Tool, main_radius: float, kins
         ordered += [p if k == 0 else rotate_path(p, k, surfaces.spec.pitch) for p in base]
     results: list[PathResult] = []
     for i, path in enumerate(ordered):
-        results.append(finish_path(path, tool, kins, scene, options, surfaces))
+        results.append(finish_trimmed(path, tool, kins, scene, options, surfaces))
         if progress is not None:
             progress(i + 1, len(ordered), path.name)
     return FinishResult(results, tool, options, scene_source)

@@ -5,8 +5,9 @@ are written together into ``verify/`` (all or nothing):
 
 * ``verify/rough``: the rough NC files with the roughing tool on the spec's blank;
   allowance = finishing allowance + roughing scallop;
-* ``verify/finish``: the finish NC files with the finishing tool starting from
-  ``verify/rough/stock.npz``; allowance = finishing scallop;
+* ``verify/finish``: the finish NC files, each with its tool (the finishing tool; the
+  fillet program with the fillet tool), starting from ``verify/rough/stock.npz``;
+  allowance = finishing scallop;
 * ``verify/regions.json``: the deviation of the rough and the finished stock per face
   role (``cam.run.regions``): the acceptance numbers (blades and hub within allowance
   + scallop + gouge tolerance; fillet strips, the lathe-turned inlet and outlet and
@@ -24,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from cam.run.regions import LabelledDesign, region_summary
-from cam.run.stages import Context, nc_programs, read_json, rough_allowance
+from cam.run.stages import Context, fillet_tool, nc_programs, read_json, rough_allowance
 from impeller_cam.atomic import replace_path, write_text_atomic
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
 
@@ -74,7 +75,12 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
     from cam.verify.command import VerifyOptions, run_verify
 
     rough = [ctx.out / p["nc"] for p in nc_programs(ctx, "rough")]
-    finish = [ctx.out / p["nc"] for p in nc_programs(ctx, "finish")]
+    finish_entries = nc_programs(ctx, "finish")
+    finish = [ctx.out / p["nc"] for p in finish_entries]
+    # post.json names each program's tool; the settings give the arguments to load them
+    arguments = {resolve_tool(a).name: a for a in (fillet_tool(ctx), ctx.settings.finish_tool)
+                 if a is not None}
+    finish_tools = [arguments.get(p["tool"], ctx.settings.finish_tool) for p in finish_entries]
     allow = allowances(ctx)
     resolution = ctx.settings.verify_resolution_mm
     tolerance = DEFAULT_TOLERANCES.gouge
@@ -89,7 +95,7 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
             options=VerifyOptions(allowance=allow["rough"], render_each_program=False),
             progress=False, design_distance=design.distance)
         finish_deviation = run_verify(
-            finish, ctx.machine, ctx.settings.finish_tool, str(stage / "rough" / "stock.npz"),
+            finish, ctx.machine, finish_tools, str(stage / "rough" / "stock.npz"),
             ctx.spec, resolution, stage / "finish",
             options=VerifyOptions(allowance=allow["finish"], render_each_program=False),
             progress=False, design_distance=design.distance)
