@@ -4,7 +4,8 @@ Writes into OUT/ (all or nothing, ``staged_directory``):
 
 * ``finish_junction.apt``, ``finish_blade.apt``, ``finish_hub.apt``: one APT CLDATA
   file per operation (workpiece frame, mm, mm/min); with ``fillet_tool`` also
-  ``finish_fillet.apt`` (the fillet pencil passes, ``cam.finishing.fillet_plan``);
+  ``finish_fillet.apt`` (the fillet pencil passes, ``cam.finishing.fillet_plan``),
+  and ``finish_edge.apt`` (passes round the blade edges, ``edge_passes`` option);
 * ``finish.json``: per path the number of points, reverse movements of A and C
   before and after (``reversals_before`` / ``reversals_after``), ``collisions``,
   ``min_clearance_mm``, the largest deviation of the ball centre from its ideal path,
@@ -26,7 +27,7 @@ import numpy as np
 import trimesh
 
 from cam.collision import CollisionScene
-from cam.finishing.fillet_plan import check_fillet_tool, plan_fillet
+from cam.finishing.fillet_plan import check_fillet_tool, plan_edges, plan_fillet
 from cam.finishing.linking import Envelope, Linker, LinkRules
 from cam.finishing.options import FinishOptions
 from cam.finishing.order import ordered_passes
@@ -186,6 +187,12 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                                 scene_source=scene, progress=report)
         toolpaths = finish_toolpaths(result, surfaces, collision, kins)
         tools = {op: the_tool for op in toolpaths}
+        if opts.edge_passes:
+            edges = plan_edges(surfaces, the_tool, kins, collision, opts, scene_source=scene,
+                               progress=report)
+            toolpaths.update(finish_toolpaths(edges, surfaces, collision, kins))
+            tools.update({op: the_tool for op in edges.operations()})
+            result = FinishResult([*result.paths, *edges.paths], the_tool, opts, scene)
         if fillet is not None:
             pencil = plan_fillet(surfaces, fillet, the_tool.radius, kins, collision, opts,
                                  scene_source=scene, progress=report)

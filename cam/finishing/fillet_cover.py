@@ -18,9 +18,11 @@ from scipy.spatial import cKDTree
 
 from cam.finishing.fillet_paths import fillet_section, wall_interval
 from cam.finishing.paths import Wall
-from geometry.surfaces import ImpellerSurfaces
+from geometry.fillet import rolling_ball
+from geometry.outline import blade_loop
+from geometry.surfaces import BladeSurface, ImpellerSurfaces
 
-__all__ = ["densify", "fillet_samples", "material_left"]
+__all__ = ["densify", "edge_samples", "fillet_samples", "material_left"]
 
 Array = NDArray[np.float64]
 
@@ -50,6 +52,29 @@ def fillet_samples(surfaces: ImpellerSurfaces, wall: Wall, along: int, across: i
         np.cos(angle)[..., None] * section.e1[:, None, :]
         + np.sin(angle)[..., None] * section.e2[:, None, :])
     return np.asarray(grid.reshape(-1, 3))
+
+
+def edge_samples(surfaces: ImpellerSurfaces, blade: BladeSurface, edge: str, radius: float,
+                 along: int, across: int) -> Array:
+    """Points on a blade edge's outline pieces above the ball-and-hub contact, ``(m, 3)``.
+
+    ``along`` points over the edge's three pieces (suction to pressure side), ``across``
+    span levels from the tip (v = 0) down to where a ball of ``radius`` touches the
+    edge and the hub (below it lies the fillet, the fillet passes' part).
+    """
+    spec = surfaces.spec
+    loop = blade_loop(blade, spec.leading_edge, spec.trailing_edge)
+    pieces = loop[5:8] if edge == "leading_edge" else loop[1:4]
+    p = np.linspace(0.0, 1.0, max(along // 3, 2))
+    depth = 2.0 * radius + float(np.max(blade.thickness(np.linspace(0, 1, 11)))) + 1.0
+    out = []
+    for piece in pieces:
+        u = piece.u_of(p)
+        span = np.linalg.norm(blade.camber(u, 1.0) - blade.camber(u, 0.0), axis=-1)
+        low = rolling_ball(piece, surfaces.hub, radius, p, 1.0 + depth / span).v
+        v = low[:, None] * np.linspace(0.0, 1.0, across)[None, :]
+        out.append(piece.point(np.repeat(p, across), v.ravel()))
+    return np.asarray(np.concatenate(out))
 
 
 def densify(centres: Array, step: float) -> Array:

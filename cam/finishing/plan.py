@@ -335,7 +335,7 @@ class FinishResult:
     def operations(self) -> dict[str, list[PathResult]]:
         """Paths grouped by operation: junction, blade, hub, fillet (those present)."""
         out: dict[str, list[PathResult]] = {}
-        for op in ("junction", "blade", "hub", "fillet"):
+        for op in ("junction", "blade", "edge", "hub", "fillet"):
             members = [p for p in self.paths if p.path.operation == op]
             if members:
                 out[op] = members

@@ -21,7 +21,7 @@ from impeller_cam.errors import InputError
 __all__ = ["STAGE_FOLDERS", "STAGE_FUNCTIONS", "Context", "read_json", "stage_outputs"]
 
 #: Finishing operations in machining order.
-FINISH_ORDER = ("junction", "blade", "hub", "fillet")
+FINISH_ORDER = ("junction", "blade", "edge", "hub", "fillet")
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ import pytest
 
 from cam.cli import main
 from cam.finishing.command import run_finish
-from cam.finishing.fillet_cover import fillet_samples, material_left
+from cam.finishing.fillet_cover import edge_samples, fillet_samples, material_left
 from cam.finishing.fillet_paths import arc_step, fillet_passes, fillet_section
 from cam.finishing.fillet_plan import check_fillet_tool, choose_fillet_tool
 from cam.finishing.paths import passage_walls
@@ -136,6 +136,37 @@ def test_pencil_balls_stay_inside_the_rolling_ball(name: str, ball: float,
             assert surfaces.hub.signed_distance(p.centre).min() >= ball - 1e-6
 
 
+@pytest.mark.parametrize("name", ["small", "round_te"])
+def test_edge_passes_wrap_the_edges_at_the_ball_radius(name: str, round_te: Path) -> None:
+    """Every edge pass's ball touches the blade outline and stays outside the blade
+    (``body_distance``, exact for round edges) and the hub; the lowest level touches the
+    hub; the passes run from the suction to the pressure side of the edge."""
+    from cam.finishing.edge_paths import edge_passes
+    from cam.finishing.paths import body_distance
+
+    spec = IMPELLERS / "small" / "spec.toml" if name == "small" else round_te
+    surfaces = build_surfaces(load_spec(spec))
+    radius = 2.0
+    paths = edge_passes(surfaces, radius, 0.8, 0.5)
+    edges = {p.name.split(".")[3] for p in paths}
+    assert edges == ({"leading_edge", "trailing_edge"} if name == "round_te"
+                     else {"leading_edge"})
+    blade = surfaces.blades[0]
+    for which in edges:
+        mine = [p for p in paths if f".{which}." in p.name]
+        assert len(mine) >= 2
+        lowest = surfaces.hub.signed_distance(mine[0].centre) - radius
+        assert abs(lowest).max() < 1e-5  # the junction ball continued round the edge
+        for p in mine:
+            assert (surfaces.hub.signed_distance(p.centre) - radius).min() > -1e-5
+            assert np.linalg.norm(np.diff(p.centre, axis=0), axis=1).max() <= 0.5 + 1e-9
+            # contact normals turn from the suction side round to the pressure side
+            assert float(p.normal[0] @ p.normal[-1]) < -0.5
+            if which == "leading_edge" or surfaces.spec.trailing_edge == "round":
+                gap = body_distance(blade, p.centre) - radius
+                assert gap.min() > -2e-2 and np.median(np.abs(gap)) < 2e-2
+
+
 def test_the_fillet_tool_is_the_largest_ball_that_fits() -> None:
     chosen = choose_fillet_tool(2.5)
     assert chosen is not None and chosen.name == "ball4_taper"
@@ -202,11 +233,12 @@ def test_fillet_finishing_is_clean_and_covers_the_fillet(name: str, ball: str, l
                           fillet_tool=f"{library}:{ball}", progress=False, plots=False,
                           passages=1, scallop_mm=scallop, point_spacing_mm=1.0,
                           blade_passes=False, hub_passes=False)
-    fillet = document["operations"]["fillet"]
+    fillet, edge = document["operations"]["fillet"], document["operations"]["edge"]
     assert fillet["tool"]["name"] == ball and fillet["apt"] == "finish_fillet.apt"
-    assert fillet["link_collisions"] == 0
-    entries = [e for e in document["paths"] if e["operation"] == "fillet"]
-    assert len(entries) == fillet["paths"] > 0
+    assert edge["tool"]["name"] == "ball4_taper" and edge["apt"] == "finish_edge.apt"
+    assert fillet["link_collisions"] == edge["link_collisions"] == 0
+    entries = [e for e in document["paths"] if e["operation"] in ("fillet", "edge")]
+    assert len(entries) == fillet["paths"] + edge["paths"] and fillet["paths"] > 0
     for entry in entries:
         assert entry["reversals_after"] == {"A": 0, "C": 0}, entry["name"]
         assert entry["collisions"] == 0 and entry["motion_collisions"] == 0, entry["name"]
@@ -228,3 +260,19 @@ def test_fillet_finishing_is_clean_and_covers_the_fillet(name: str, ball: str, l
     for wall in [w for pair in passage_walls(surfaces) for w in pair]:
         left = material_left(fillet_samples(surfaces, wall, 400, 15), passes, tool.radius)
         assert left.max() <= scallop + 0.01, (wall.label, float(left.max()))
+    # the edge passes (main ball) leave at most the scallop on the leading edge and a
+    # round trailing edge of blade 0, above the ball-and-hub contact
+    main = resolve_tool("ball4_taper")
+    edge_paths = read_apt(out / "finish_edge.apt")
+    hits, clearance, count = independent_check(
+        out / "scene.stl", edge_paths, main, document["options"]["cutter_allowance_mm"])
+    assert count == edge["poses"] and hits == 0
+    edge_passes = [tip + main.radius * axis for tp in edge_paths
+                   for tip, axis in passes_of(tp)]
+    edges = ["leading_edge"] + (["trailing_edge"] if name == "round_te" else [])
+    assert edge["paths"] == sum(1 for e in entries if e["operation"] == "edge")
+    for which in edges:
+        assert any(f".{which}." in e["name"] for e in entries), which
+        samples = edge_samples(surfaces, surfaces.blades[0], which, main.radius, 60, 12)
+        left = material_left(samples, edge_passes, main.radius)
+        assert left.max() <= scallop + 0.01, (which, float(left.max()))
