@@ -13,10 +13,13 @@ between postures the centre moves on the chord, inside the offset, so the points
 at most ``sqrt(8 (R + d/2) chordal)`` apart (0.58 mm for R 3, d 2.5: the chordal
 tolerance 0.01 mm).
 
-Span levels: the lowest is the ball touching both the outline and the hub
+Span levels: equal steps in v from the ball touching both the outline and the hub
 (``geometry.fillet.rolling_ball`` with the tool radius: the junction ball continued
-round the edge), the others equal steps in v up to the tip (v = 0), as many as the
-scallop stepover needs over the longest span. Postures: the blade's ruling at the
+round the edge) up to the tip (v = 0), as many as the scallop stepover needs over the
+longest span; the level touching the hub itself is left out (it gouged the small
+fixture's leading-edge root in verification), and so is any level whose ball comes
+closer than R + ``HUB_CLEARANCE_MM`` to the hub: the root is the fillet passes' part
+(they wrap half of each edge from either side). Postures: the blade's ruling at the
 edge (``reference_axis``), turned away from the local face like the junction paths;
 the contact normal turns by about 180 deg along the pass and the axis stays normal to
 it (the ball's side cuts). Only passage 0 is computed (its walls' blades); the
@@ -36,11 +39,15 @@ from geometry.outline import OutlineSegment, blade_loop
 from geometry.surfaces import ImpellerSurfaces
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
 
-__all__ = ["OVERLAP_MM", "edge_passes", "edge_loop_range"]
+__all__ = ["HUB_CLEARANCE_MM", "OVERLAP_MM", "edge_passes", "edge_loop_range"]
 
 Array = NDArray[np.float64]
 #: How far the edge passes run back onto each side, mm.
 OVERLAP_MM = 2.0
+#: Least distance of an edge pass's ball from the hub, mm: the level touching the hub
+#: (the junction ball continued round the edge) gouged the small fixture's leading-edge
+#: root by 0.7 mm in verification; the fillet passes' ends cover the root instead.
+HUB_CLEARANCE_MM = 0.1
 #: Coarse samples per outline segment before resampling.
 _COARSE = 40
 _FD = 1e-6
@@ -173,9 +180,11 @@ def _edge_levels(surfaces: ImpellerSurfaces, wall: Wall, opposite: Wall, name: s
                  1)
     curve_u = wall.curve_u(u)
     out = []
-    for k in range(levels):
+    for k in range(1, levels + 1):
         v = low * (1.0 - k / levels)
         centre, normal, _, ruling = _evaluate(loop, lp, v, radius)
+        if float(surfaces.hub.signed_distance(centre).min()) < radius + HUB_CLEARANCE_MM:
+            continue
         out.append(CutterPath(
             name=f"p{passage}.edge.{name}.{edge}.{k:02d}", operation="edge", passage=passage,
             centre=centre, normal=normal, reference_axis=ruling, away=normal,
