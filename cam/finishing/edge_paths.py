@@ -20,7 +20,8 @@ longest span; the level touching the hub itself is left out (it gouged the small
 fixture's leading-edge root in verification), and so is any level whose ball comes
 closer than R + ``HUB_CLEARANCE_MM`` to the hub: the root is the fillet passes' part
 (they wrap half of each edge from either side). Postures: the blade's ruling at the
-edge (``reference_axis``), turned away from the local face like the junction paths;
+edge leaned ``LEAN_DEG`` towards the local outline normal (``reference_axis``: the
+flutes lean off the edge), turned about C like the junction paths;
 the contact normal turns by about 180 deg along the pass and the axis stays normal to
 it (the ball's side cuts). Only passage 0 is computed (its walls' blades); the
 others are rotations.
@@ -33,6 +34,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from cam.finishing.fillet_paths import LEAN_DEG, lean_away
 from cam.finishing.paths import CutterPath, Wall, passage_walls
 from geometry.fillet import rolling_ball
 from geometry.outline import OutlineSegment, blade_loop
@@ -187,6 +189,7 @@ def _edge_levels(surfaces: ImpellerSurfaces, wall: Wall, opposite: Wall, name: s
             continue
         out.append(CutterPath(
             name=f"p{passage}.edge.{name}.{edge}.{k:02d}", operation="edge", passage=passage,
-            centre=centre, normal=normal, reference_axis=ruling, away=normal,
+            centre=centre, normal=normal,
+            reference_axis=lean_away(ruling, normal, math.radians(LEAN_DEG)), away=normal,
             opposite_tip=opposite.tip_points(curve_u), curve_u=curve_u))
     return out
