@@ -26,6 +26,7 @@ from cam.finishing.fillet_cover import edge_samples, fillet_samples, material_le
 from cam.finishing.fillet_paths import arc_step, fillet_passes, fillet_section
 from cam.finishing.fillet_plan import check_fillet_tool, choose_fillet_tool
 from cam.finishing.paths import passage_walls
+from cam.finishing.posture import rotate_about_z
 from cam.tools import resolve_tool
 from geometry.design import load_design, write_design
 from geometry.spec import load_spec
@@ -259,8 +260,10 @@ def test_fillet_finishing_is_clean_and_covers_the_fillet(name: str, ball: str, l
     for wall in [w for pair in passage_walls(surfaces) for w in pair]:
         left = material_left(fillet_samples(surfaces, wall, 400, 15), passes, tool.radius)
         assert left.max() <= scallop + 0.01, (wall.label, float(left.max()))
-    # the edge passes (main ball) leave at most the scallop on the leading edge and a
-    # round trailing edge of blade 0, above the ball-and-hub contact
+    # the edge passes (main ball) and the fillet passes (which wrap half of each edge
+    # from either side: blade 0's suction side is the last passage's, the rotation of
+    # passage 0's blade 1 suction side) leave at most the scallop on blade 0's leading
+    # edge and a round trailing edge, above the ball-and-hub contact
     main = resolve_tool("ball4_taper")
     edge_paths = read_apt(out / "finish_edge.apt")
     hits, clearance, count = independent_check(
@@ -273,5 +276,7 @@ def test_fillet_finishing_is_clean_and_covers_the_fillet(name: str, ball: str, l
     for which in edges:
         assert any(f".{which}." in e["name"] for e in entries), which
         samples = edge_samples(surfaces, surfaces.blades[0], which, main.radius, 60, 12)
-        left = material_left(samples, edge_passes, main.radius)
+        back = [rotate_about_z(c, -surfaces.spec.pitch) for c in passes]
+        left = np.minimum(material_left(samples, edge_passes, main.radius),
+                          material_left(samples, passes + back, tool.radius))
         assert left.max() <= scallop + 0.01, (which, float(left.max()))
