@@ -70,6 +70,10 @@ def finish_command(
         int | None, typer.Option(help="Finish only the first N passages (default: all).")
     ] = None,
     plots: Annotated[bool, typer.Option(help="Write the A/C displacement plots.")] = True,
+    fillet_tool: Annotated[
+        str | None, typer.Option("--fillet-tool", help="Ball no larger than the fillet: "
+                                 "also finish the fillets (finish_fillet.apt).")
+    ] = None,
 ) -> None:
     """Five-axis finishing: APT per operation, finish.json, A/C displacement plots."""
     from cam.finishing.command import run_finish
@@ -80,6 +84,7 @@ def finish_command(
         tool,
         out,
         plots=plots,
+        fillet_tool=fillet_tool,
         scallop_mm=scallop,
         point_spacing_mm=spacing,
         chordal_tolerance_mm=chordal_tol,
@@ -205,6 +210,10 @@ def run_command(
     finish_tool: Annotated[
         str | None, typer.Option("--finish-tool", help="Finishing tool (over the spec's).")
     ] = None,
+    fillet_tool: Annotated[
+        str | None, typer.Option("--fillet-tool", help="Fillet pencil tool (over the "
+                                 "spec's; default the library's largest ball <= r_f).")
+    ] = None,
     post: Annotated[
         str | None, typer.Option("--post", help="Post-processor (default: the machine's).")
     ] = None,
@@ -230,6 +239,8 @@ def run_command(
     settings: dict[str, object] = {}
     if resolution is not None:
         settings["verify_resolution_mm"] = resolution
+    if fillet_tool is not None:
+        settings["fillet_tool"] = fillet_tool
     options: dict[str, Any] = dict(rough_tool=rough_tool, finish_tool=finish_tool, tool=tool,
                                    post=post,
                                    only=stage, start=start, **settings)

@@ -97,10 +97,19 @@ def check_run_inputs(spec: Path, machine: Path, **options: Any) -> None:
     _check_spec(spec)
     load_machine(machine)
     keys = ("rough_tool", "finish_tool", "tool", "post", "rough", "finish",
-            "verify_resolution_mm", "tessellation_mm", "servo", "indexing_grid")
+            "verify_resolution_mm", "tessellation_mm", "servo", "indexing_grid", "fillet_tool")
     settings = resolve_settings(spec, **{k: v for k, v in options.items() if k in keys})
     resolve_tool(settings.rough_tool)
     resolve_tool(settings.finish_tool)
+    if settings.fillet_tool is not None:
+        from cam.finishing.fillet_plan import check_fillet_tool
+        from geometry.spec import load_spec
+
+        try:
+            check_fillet_tool(resolve_tool(settings.fillet_tool),
+                              float(load_spec(spec).fillet_radius))
+        except InputError as error:
+            raise with_file(error, spec, "machining") from None
 
 
 def _check_spec(path: Path) -> str:

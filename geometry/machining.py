@@ -9,6 +9,7 @@ checked against the roughing and finishing option dataclasses by ``cam.run.setti
     [machining]
     rough_tool = "ball10"          # tool library name (or LIBRARY.toml:NAME)
     finish_tool = "ball6_taper"
+    fillet_tool = "ball4_taper"    # optional: default the library's largest ball <= r_f
     post = "linuxcnc"              # optional: default the machine's dialect
     verify_resolution_mm = 0.2     # dexel spacing of the verification
     tessellation_mm = 0.02         # STL / render tessellation of the geometry stage
@@ -38,6 +39,7 @@ __all__ = ["MACHINING_KEYS", "MachiningSettings", "MachiningTable", "machining_o
 MACHINING_KEYS: dict[str, str] = {
     "rough_tool": "a tool name, e.g. \"ball10\" (or LIBRARY.toml:NAME)",
     "finish_tool": "a tool name, e.g. \"ball6_taper\" (or LIBRARY.toml:NAME)",
+    "fillet_tool": "a ball no larger than the fillet, e.g. \"ball4_taper\"",
     "post": "a post-processor name (impeller-cam posts)",
     "verify_resolution_mm": "a dexel spacing 0.005..5 mm",
     "tessellation_mm": "a linear deflection > 0 mm",
@@ -56,6 +58,9 @@ class MachiningSettings:
     ----------
     rough_tool, finish_tool : str or None
         Tool names (``None``: not given; the run then needs ``-t``).
+    fillet_tool : str or None
+        Ball of the fillet pencil passes (``None``: chosen from the library by the
+        fillet radius, ``cam.finishing.fillet_plan.choose_fillet_tool``).
     post : str or None
         Post-processor name (``None``: the machine's).
     verify_resolution_mm : float or None
@@ -69,6 +74,7 @@ class MachiningSettings:
 
     rough_tool: str | None = None
     finish_tool: str | None = None
+    fillet_tool: str | None = None
     post: str | None = None
     verify_resolution_mm: float | None = None
     tessellation_mm: float | None = None
@@ -93,6 +99,8 @@ class MachiningTable(Strict):
     rough_tool: str | None = quantity(None, min_length=1, description=MACHINING_KEYS["rough_tool"])
     finish_tool: str | None = quantity(None, min_length=1,
                                        description=MACHINING_KEYS["finish_tool"])
+    fillet_tool: str | None = quantity(None, min_length=1,
+                                       description=MACHINING_KEYS["fillet_tool"])
     post: str | None = quantity(None, min_length=1, description=MACHINING_KEYS["post"])
     verify_resolution_mm: float | None = quantity(
         None, unit="mm", ge=RESOLUTION_RANGE[0], le=RESOLUTION_RANGE[1],
@@ -142,6 +150,7 @@ def settings_of(table: MachiningTable | None) -> MachiningSettings:
     return MachiningSettings(
         rough_tool=table.rough_tool,
         finish_tool=table.finish_tool,
+        fillet_tool=table.fillet_tool,
         post=table.post,
         verify_resolution_mm=table.verify_resolution_mm,
         tessellation_mm=table.tessellation_mm,

@@ -3,7 +3,9 @@
 Writes into OUT/ (all or nothing, ``staged_directory``):
 
 * ``finish_junction.apt``, ``finish_blade.apt``, ``finish_hub.apt``: one APT CLDATA
-  file per operation (workpiece frame, mm, mm/min);
+  file per operation (workpiece frame, mm, mm/min); with ``fillet_tool`` also
+  ``finish_fillet.apt`` (the fillet pencil passes, ``cam.finishing.fillet_plan``),
+  and ``finish_edge.apt`` (passes round the blade edges, ``edge_passes`` option);
 * ``finish.json``: per path the number of points, reverse movements of A and C
   before and after (``reversals_before`` / ``reversals_after``), ``collisions``,
   ``min_clearance_mm``, the largest deviation of the ball centre from its ideal path,
@@ -25,6 +27,7 @@ import numpy as np
 import trimesh
 
 from cam.collision import CollisionScene
+from cam.finishing.fillet_plan import check_fillet_tool, plan_edges, plan_fillet
 from cam.finishing.linking import Envelope, Linker, LinkRules
 from cam.finishing.options import FinishOptions
 from cam.finishing.order import ordered_passes
@@ -77,6 +80,11 @@ def finish_toolpaths(result: FinishResult, surfaces: ImpellerSurfaces,
             for op, members in result.operations().items()}
 
 
+def _tool_entry(tool: Tool) -> dict[str, Any]:
+    """finish.json's description of a tool."""
+    return {"name": tool.name, "number": tool.number, "diameter_mm": tool.diameter}
+
+
 def _check_links(scene: CollisionScene, tool: Tool, toolpath: Toolpath,
                  air: np.ndarray, options: FinishOptions) -> int:
     """Collision-check every air move that is not a checked link (those are checked in
@@ -100,7 +108,8 @@ def _check_links(scene: CollisionScene, tool: Tool, toolpath: Toolpath,
 
 def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
                library: str | Path | None = None, scene: str = "solid", plots: bool = True,
-               progress: bool | None = None, **options: Any) -> dict[str, Any]:
+               progress: bool | None = None, fillet_tool: str | None = None,
+               **options: Any) -> dict[str, Any]:
     """Five-axis finishing of an impeller: APT per operation, finish.json, plots.
 
     Parameters
@@ -123,6 +132,9 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         Write the angular displacement PNGs.
     progress : bool, optional
         Show a progress bar (default: when stderr is a terminal).
+    fillet_tool : str, optional
+        Ball-end mill (radius at most the fillet radius) of the fillet pencil
+        passes, operation ``fillet`` (default: no fillet operation).
     **options
         Fields of ``FinishOptions`` (mm, deg).
 
@@ -149,14 +161,18 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         raise InputError("five-axis finishing needs a ball-end mill", field="-t",
                          value=the_tool.name, accepted="a tool of type 'ball'")
     kins = kinematics_for(load_machine(machine))
+    the_spec = load_spec(spec)
+    fillet = None if fillet_tool is None else resolve_tool(fillet_tool, library)
+    if fillet is not None:
+        check_fillet_tool(fillet, float(the_spec.fillet_radius))
     if scene == "solid":
         from geometry.impeller import Impeller
 
-        impeller = Impeller(load_spec(spec))
+        impeller = Impeller(the_spec)
         surfaces = impeller.surfaces
         meshes = solid_meshes(impeller, opts.tessellation_mm)
     else:
-        surfaces = build_surfaces(load_spec(spec))
+        surfaces = build_surfaces(the_spec)
         meshes = surface_meshes(surfaces, SURFACE_MESH_SPACING)
     collision = CollisionScene(meshes)
     bar = progress_bar(progress)
@@ -170,7 +186,20 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         result = plan_finishing(surfaces, the_tool, kins, collision, opts,
                                 scene_source=scene, progress=report)
         toolpaths = finish_toolpaths(result, surfaces, collision, kins)
-        link_collisions = {op: _check_links(collision, the_tool, tp, air, opts)
+        tools = {op: the_tool for op in toolpaths}
+        if opts.edge_passes:
+            edges = plan_edges(surfaces, the_tool, kins, collision, opts, scene_source=scene,
+                               progress=report)
+            toolpaths.update(finish_toolpaths(edges, surfaces, collision, kins))
+            tools.update({op: the_tool for op in edges.operations()})
+            result = FinishResult([*result.paths, *edges.paths], the_tool, opts, scene)
+        if fillet is not None:
+            pencil = plan_fillet(surfaces, fillet, the_tool.radius, kins, collision, opts,
+                                 scene_source=scene, progress=report)
+            toolpaths.update(finish_toolpaths(pencil, surfaces, collision, kins))
+            tools.update({op: fillet for op in pencil.operations()})
+            result = FinishResult([*result.paths, *pencil.paths], the_tool, opts, scene)
+        link_collisions = {op: _check_links(collision, tools[op], tp, air, opts)
                            for op, (tp, air, _) in toolpaths.items()}
     summary = result.summary()
     entries = summary.pop("path_entries")
@@ -179,8 +208,9 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         for op, (toolpath, air, links) in toolpaths.items():
             name = f"finish_{op}.apt"
             write_apt(stage / name, [toolpath],
-                      header=f"impeller-cam finish: {op}, tool {the_tool.name}")
-            operations[op] = {"apt": name, "paths": sum(e["operation"] == op for e in entries),
+                      header=f"impeller-cam finish: {op}, tool {tools[op].name}")
+            operations[op] = {"apt": name, "tool": _tool_entry(tools[op]),
+                              "paths": sum(e["operation"] == op for e in entries),
                               "poses": len(toolpath), "link_poses": int(air.sum()),
                               "link_collisions": link_collisions[op],
                               "link_kinds": {
@@ -204,8 +234,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
             "format": "impeller-cam finish 1",
             "spec": str(spec),
             "machine": str(machine),
-            "tool": {"name": the_tool.name, "number": the_tool.number,
-                     "diameter_mm": the_tool.diameter},
+            "tool": _tool_entry(the_tool),
             "scene": scene,
             "options": opts.as_dict(),
             "paper": PAPER,

@@ -125,6 +125,9 @@ class FinishOptions:
         Number of passages to machine (default all; the others are rotations).
     blade_passes, hub_passes : bool
         Generate the blade-side and hub passes (junction paths always).
+    edge_passes : bool
+        Generate the passes round the leading edge and a round trailing edge
+        (``edge_paths``; operation ``edge``).
     tessellation_mm : float
         Tessellation of the collision meshes, mm.
     """
@@ -162,6 +165,7 @@ class FinishOptions:
     passages: int | None = None
     blade_passes: bool = True
     hub_passes: bool = True
+    edge_passes: bool = True
     tessellation_mm: float = DEFAULT_TOLERANCES.tessellation
 
     def __post_init__(self) -> None:

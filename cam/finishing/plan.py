@@ -341,9 +341,9 @@ class FinishResult:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def operations(self) -> dict[str, list[PathResult]]:
-        """Paths grouped by operation: junction, blade, hub (those present)."""
+        """Paths grouped by operation: junction, blade, hub, fillet (those present)."""
         out: dict[str, list[PathResult]] = {}
-        for op in ("junction", "blade", "hub"):
+        for op in ("junction", "blade", "edge", "hub", "fillet"):
             members = [p for p in self.paths if p.path.operation == op]
             if members:
                 out[op] = members

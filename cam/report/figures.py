@@ -32,7 +32,8 @@ __all__ = ["FINISH_COLOURS", "ROUGH_COLOURS", "angles_section", "deviation_secti
            "operation_colour", "render_section", "stock_section", "toolpaths_section"]
 
 #: Finishing operations and their colours (legend and picture).
-FINISH_COLOURS = {"junction": "#d62728", "blade": "#2ca02c", "hub": "#ff7f0e"}
+FINISH_COLOURS = {"junction": "#d62728", "blade": "#2ca02c", "hub": "#ff7f0e", "edge": "#bcbd22",
+                  "fillet": "#f0027f"}
 #: Roughing UMR colours, cycled by UMR number.
 ROUGH_COLOURS = ("#1f77b4", "#9467bd", "#17becf", "#8c564b", "#e377c2", "#393b79",
                  "#637939", "#7f7f7f")

@@ -24,7 +24,7 @@ __all__ = ["DEFAULT_RESOLUTION", "RunSettings", "resolve_settings"]
 DEFAULT_RESOLUTION = 0.1
 #: Keyword settings ``run_chain`` accepts besides the tools and the post.
 SETTING_KEYS = ("rough", "finish", "verify_resolution_mm", "tessellation_mm", "servo",
-                "indexing_grid")
+                "indexing_grid", "fillet_tool")
 
 
 @dataclass(frozen=True)
@@ -35,6 +35,9 @@ class RunSettings:
     ----------
     rough_tool, finish_tool : str
         Tool names (library name or ``LIBRARY.toml:NAME``).
+    fillet_tool : str or None
+        Ball of the fillet pencil passes (``None``: the finish stage chooses the
+        library's largest ball no larger than the fillet, or plans no fillet pass).
     post : str or None
         Post-processor (``None``: the machine's default dialect).
     verify_resolution_mm : float
@@ -59,6 +62,7 @@ class RunSettings:
     finish: dict[str, Any] = field(default_factory=dict)
     servo: bool = True
     indexing_grid: str = "coarse"
+    fillet_tool: str | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready (run.json ``settings``)."""
@@ -101,7 +105,8 @@ def resolve_settings(
         Post-processor name.
     **settings
         ``rough`` / ``finish`` (dicts merged over the spec's sub-tables, key by key),
-        ``verify_resolution_mm``, ``tessellation_mm``, ``servo``, ``indexing_grid``.
+        ``verify_resolution_mm``, ``tessellation_mm``, ``servo``, ``indexing_grid``,
+        ``fillet_tool`` (over the spec's).
 
     Raises
     ------
@@ -144,4 +149,5 @@ def resolve_settings(
         post=post or table.post, verify_resolution_mm=float(resolution),
         tessellation_mm=float(tessellation), rough=rough, finish=finish,
         servo=bool(settings.get("servo", True)), indexing_grid=str(grid),
+        fillet_tool=settings.get("fillet_tool") or table.fillet_tool,
     )

@@ -21,7 +21,7 @@ from impeller_cam.errors import InputError
 __all__ = ["STAGE_FOLDERS", "STAGE_FUNCTIONS", "Context", "read_json", "stage_outputs"]
 
 #: Finishing operations in machining order.
-FINISH_ORDER = ("junction", "blade", "hub")
+FINISH_ORDER = ("junction", "blade", "edge", "hub", "fillet")
 
 
 @dataclass(frozen=True)
@@ -117,12 +117,26 @@ def finish_options(ctx: Context) -> dict[str, Any]:
     return options
 
 
+def fillet_tool(ctx: Context) -> str | None:
+    """The fillet pencil's tool: the settings' (spec's ``[machining] fillet_tool``), else
+    the library's largest ball no larger than the fillet; ``None``: no fillet pass
+    (no fillet, or no such ball: finish.json says which, ``fillet_note``)."""
+    from cam.finishing.fillet_plan import choose_fillet_tool
+    from geometry.spec import load_spec
+
+    if ctx.settings.fillet_tool is not None:
+        return ctx.settings.fillet_tool
+    chosen = choose_fillet_tool(float(load_spec(ctx.spec).fillet_radius))
+    return None if chosen is None else chosen.name
+
+
 def finish_stage(ctx: Context) -> None:
-    """Five-axis finishing (``run_finish``) with the finishing tool (``finish_options``)."""
+    """Five-axis finishing (``run_finish``) with the finishing tool (``finish_options``),
+    and the fillet pencil passes with ``fillet_tool``."""
     from cam.finishing.command import run_finish
 
     run_finish(ctx.spec, ctx.machine, ctx.settings.finish_tool, ctx.out / "finish",
-               progress=False, **finish_options(ctx))
+               progress=False, fillet_tool=fillet_tool(ctx), **finish_options(ctx))
 
 
 def apt_files(ctx: Context) -> list[tuple[str, str, str]]:
@@ -133,7 +147,8 @@ def apt_files(ctx: Context) -> list[tuple[str, str, str]]:
            for op in rough["operations"]]
     ops = finish["operations"]
     order = [op for op in FINISH_ORDER if op in ops] + sorted(set(ops) - set(FINISH_ORDER))
-    out += [("finish", f"finish/{ops[op]['apt']}", finish["tool"]["name"]) for op in order]
+    out += [("finish", f"finish/{ops[op]['apt']}", ops[op].get("tool", finish["tool"])["name"])
+            for op in order]
     return out
 
 

@@ -7,8 +7,9 @@ are written together into ``verify/`` (all or nothing):
   allowance = finishing allowance + roughing scallop; a blank short of the design
   (``stock_short``: the blank cuts into the part somewhere) stops the stage with an
   ``InputError`` before any block is run, nothing written;
-* ``verify/finish``: the finish NC files with the finishing tool starting from
-  ``verify/rough/stock.npz``; allowance = finishing scallop;
+* ``verify/finish``: the finish NC files, each with its tool (the finishing tool; the
+  fillet program with the fillet tool), starting from ``verify/rough/stock.npz``;
+  allowance = finishing scallop;
 * ``verify/regions.json``: the deviation of the rough and the finished stock per face
   face group (``cam.run.regions``): the acceptance numbers (every milled face: blade
   sides, hub, fillets, leading and trailing edges, within allowance + scallop +
@@ -26,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from cam.run.regions import LabelledDesign, region_summary
-from cam.run.stages import Context, nc_programs, read_json, rough_allowance
+from cam.run.stages import Context, fillet_tool, nc_programs, read_json, rough_allowance
 from geometry.spec import load_spec
 from impeller_cam.atomic import replace_path, write_text_atomic
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
@@ -77,7 +78,12 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
     from cam.verify.command import VerifyOptions, run_verify
 
     rough = [ctx.out / p["nc"] for p in nc_programs(ctx, "rough")]
-    finish = [ctx.out / p["nc"] for p in nc_programs(ctx, "finish")]
+    finish_entries = nc_programs(ctx, "finish")
+    finish = [ctx.out / p["nc"] for p in finish_entries]
+    # post.json names each program's tool; the settings give the arguments to load them
+    arguments = {resolve_tool(a).name: a for a in (fillet_tool(ctx), ctx.settings.finish_tool)
+                 if a is not None}
+    finish_tools = [arguments.get(p["tool"], ctx.settings.finish_tool) for p in finish_entries]
     allow = allowances(ctx)
     resolution = ctx.settings.verify_resolution_mm
     tolerance = DEFAULT_TOLERANCES.gouge
@@ -94,7 +100,7 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
                                   refuse_short_stock=True),
             progress=False, design_distance=design.distance)
         finish_deviation = run_verify(
-            finish, ctx.machine, ctx.settings.finish_tool, str(stage / "rough" / "stock.npz"),
+            finish, ctx.machine, finish_tools, str(stage / "rough" / "stock.npz"),
             ctx.spec, resolution, stage / "finish",
             options=VerifyOptions(allowance=allow["finish"], render_each_program=False),
             progress=False, design_distance=design.distance)

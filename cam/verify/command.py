@@ -219,7 +219,7 @@ def _cap(events: list[Event]) -> tuple[list[Event], dict[str, int]]:
 def run_verify(
     programs: list[Path],
     machine: Path,
-    tool: str,
+    tool: str | list[str],
     stock: str,
     design: Path | None,
     resolution: float,
@@ -237,8 +237,9 @@ def run_verify(
         NC files, run in order on the same stock.
     machine : Path
         Machine TOML (kinematics, limits).
-    tool : str
-        ``-t`` argument: ``NAME`` or ``LIBRARY.toml:NAME``.
+    tool : str or list of str
+        ``-t`` argument: ``NAME`` or ``LIBRARY.toml:NAME``; a list: the tool of each
+        program (a chain's finish programs with their fillet tool).
     stock : str
         ``--stock`` argument (``cam.verify.sources.load_stock``).
     design : Path or None
@@ -277,9 +278,13 @@ def run_verify(
     _check_inputs(programs, resolution)
     the_machine = load_machine(machine)
     kins = kinematics_for(the_machine)
-    the_tool = resolve_tool(tool)
-    shape = tool_shape(the_tool)
-    read = [read_nc(p, machine=the_machine) for p in programs]  # all parse before any work
+    names = list(tool) if isinstance(tool, list) else [tool] * len(programs)
+    if len(names) != len(programs):
+        raise InputError("one tool per program", field="-t", value=len(names),
+                         accepted=f"{len(programs)} tool names")
+    the_tools = [resolve_tool(name) for name in names]
+    shapes = [tool_shape(t) for t in the_tools]
+    read = [read_nc(p, machine=the_machine) for p in programs]  # all programs parse before any work
     design_mesh = (load_design(design) if design is not None and design_distance is None
                    else None)
     work = load_stock(stock, resolution)
@@ -305,6 +310,7 @@ def run_verify(
         bar.start()
     try:
         for index, (path, program) in enumerate(zip(programs, read, strict=True)):
+            shape = shapes[index]
             moves = program_moves(program, the_machine, kins, shape.reach, sweep_tol)
             before = work.volume()
             per_block = _sweep_program(work, moves, shape, len(owners), bar, path.name)
@@ -367,7 +373,7 @@ def run_verify(
         "version": 1,
         "programs": summaries,
         "machine": str(machine),
-        "tool": the_tool.name,
+        "tool": ", ".join(dict.fromkeys(t.name for t in the_tools)),
         "stock": str(stock),
         "design": None if design is None else str(design),
         "resolution_mm": work.pitch,

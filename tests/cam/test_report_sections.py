@@ -301,9 +301,9 @@ def test_page_escapes_titles() -> None:
 
 def test_operation_colours_distinct() -> None:
     colours = {operation_colour("finish", f"finish_{op}")[1] for op in
-               ("junction", "blade", "hub")}
+               ("junction", "blade", "hub", "edge", "fillet")}
     colours |= {operation_colour("rough", f"rough_umr{i}")[1] for i in (1, 2, 3)}
-    assert len(colours) == 6
+    assert len(colours) == 8
 
 
 def test_one_legend_entry_per_umr_and_no_unset_settings(sample: Path) -> None:

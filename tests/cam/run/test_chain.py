@@ -22,6 +22,7 @@ CONTRACT_FILES = [
     "run.json", "geometry/impeller.step", "geometry/impeller.stl", "geometry/geometry.json",
     "geometry/impeller.png", "rough/rough.json", "finish/finish.json",
     "finish/finish_junction.apt", "finish/finish_blade.apt", "finish/finish_hub.apt",
+    "finish/finish_edge.apt",
     "finish/scene.stl", "nc/post.json", "verify/rough/verify.json",
     "verify/rough/report.html", "verify/rough/verify.junit.xml", "verify/rough/stock.npz",
     "verify/finish/verify.json", "verify/finish/stock.npz", "verify/regions.json",
@@ -94,9 +95,11 @@ def test_post_json_lists_rough_then_finish_programs(chain_small: Path) -> None:
     rough = load(chain_small, "rough/rough.json")
     assert post["post"] == "linuxcnc"  # the machine's dialect
     ops = [p["operation"] for p in post["programs"]]
-    assert ops == ["rough"] * len(rough["operations"]) + ["finish"] * 3
-    assert [p["name"] for p in post["programs"][-3:]] == [
-        "finish_junction", "finish_blade", "finish_hub"]
+    # finish: junction, blade, edge (round the leading edge), hub; no fillet program
+    # (the bundled library has no ball of the small fixture's 1 mm fillet radius)
+    assert ops == ["rough"] * len(rough["operations"]) + ["finish"] * 4
+    assert [p["name"] for p in post["programs"][-4:]] == [
+        "finish_junction", "finish_blade", "finish_edge", "finish_hub"]
     for program in post["programs"]:
         assert program["nc"].endswith(".ngc") and (chain_small / program["nc"]).is_file()
         assert (chain_small / program["apt"]).is_file()

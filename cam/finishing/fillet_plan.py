@@ -1,0 +1,180 @@
+"""The fillet and edge finishing operations: the fillet tool and the finished paths.
+
+* ``choose_fillet_tool``: the largest ball of a tool library whose radius is at most
+  the fillet radius (a larger ball cannot reach into the fillet); ``None`` when the
+  library has none.
+* ``plan_fillet``: the pencil passes of ``fillet_paths.fillet_passes`` of every
+  passage, each through the same M3 procedure as the junction paths
+  (``plan.finish_path``: postures, reverse movements removed, interference remedy
+  and repair), with the fillet tool. The result is a ``FinishResult`` of its own
+  (its tool differs from the blade and hub finishing tool): one more APT file,
+  ``finish_fillet.apt``.
+* ``plan_edges``: the passes round the blade edges (``edge_paths.edge_passes``)
+  with the blade and hub finishing tool, operation ``edge`` (``finish_edge.apt``).
+* A pass whose first or last postures still break a rule after the remedy and the
+  repair (round a cut trailing edge, where the pass turns from the side onto the
+  edge face) is shortened at that end, to start after / end before them (at most
+  ``TRIM_ROUNDS`` times, never below half its points), like the open-ended hub
+  passes: ``trimmed_points`` in finish.json; what it leaves shows in the
+  verification.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from cam.collision import CollisionScene
+from cam.finishing.edge_paths import edge_passes
+from cam.finishing.fillet_paths import fillet_passes
+from cam.finishing.options import FinishOptions, scallop_stepover
+from cam.finishing.paths import CutterPath, rotate_path, subset_path
+from cam.finishing.plan import FinishResult, PathResult, finish_path
+from cam.tools import DEFAULT_LIBRARY, Tool, load_tool_library
+from geometry.surfaces import ImpellerSurfaces
+from impeller_cam.errors import InputError
+from postproc.kinematics import Kinematics
+
+__all__ = ["check_fillet_tool", "choose_fillet_tool", "finish_trimmed", "plan_edges",
+           "plan_fillet"]
+
+#: A ball this much larger than the fillet still counts as "equal" (rounding), mm.
+RADIUS_SLACK = 1e-6
+#: A pass is shortened at its ends at most this many times.
+TRIM_ROUNDS = 3
+
+
+def choose_fillet_tool(fillet_radius: float, library: str | Path | None = None
+                       ) -> Tool | None:
+    """The largest ball-end mill of ``library`` with radius at most ``fillet_radius``.
+
+    Parameters
+    ----------
+    fillet_radius : float
+        Fillet radius r_f, mm.
+    library : str or Path, optional
+        Tool library TOML (default: the bundled library).
+
+    Returns
+    -------
+    Tool or None
+        ``None`` when the design has no fillet or no ball fits; ties: the first in
+        the library.
+    """
+    if fillet_radius <= 0:
+        return None
+    tools = load_tool_library(Path(library or DEFAULT_LIBRARY)).values()
+    fits = [t for t in tools if t.shape == "ball" and t.radius <= fillet_radius + RADIUS_SLACK]
+    if not fits:
+        return None
+    best = max(t.radius for t in fits)
+    return next(t for t in fits if t.radius == best)
+
+
+def check_fillet_tool(tool: Tool, fillet_radius: float) -> None:
+    """``InputError`` unless ``tool`` is a ball that fits a fillet of ``fillet_radius`` mm."""
+    if fillet_radius <= 0:
+        raise InputError("the design has no blade-to-hub fillet to finish",
+                         field="fillet_tool", value=tool.name,
+                         accepted="no fillet tool, or a design with blade.fillet_radius_mm > 0")
+    if tool.shape != "ball":
+        raise InputError("fillet finishing needs a ball-end mill", field="fillet_tool",
+                         value=tool.name, accepted="a tool of type 'ball'")
+    if tool.radius > fillet_radius + RADIUS_SLACK:
+        raise InputError(f"the fillet tool's ball (radius {tool.radius:g} mm) is larger "
+                         f"than the fillet (radius {fillet_radius:g} mm)",
+                         field="fillet_tool", value=tool.name,
+                         accepted=f"a ball of diameter <= {2.0 * fillet_radius:g} mm")
+
+
+def finish_trimmed(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionScene,
+                   options: FinishOptions, surfaces: ImpellerSurfaces) -> PathResult:
+    """``finish_path``, then shortened at either end where postures break a rule.
+
+    Offending postures in the first half move the start past the last of them, those
+    in the second half the end before the first of them; finished again (at most
+    ``TRIM_ROUNDS`` times, while at least half the points remain). ``trimmed`` is
+    the number of points cut.
+    """
+    result = finish_path(path, tool, kins, scene, options, surfaces)
+    length = len(path)
+    for _ in range(TRIM_ROUNDS):
+        bad = np.union1d(result.interference.interfering_points, result.rule_points)
+        if not bad.size:
+            break
+        size = len(result.path)
+        head, tail = bad[bad < size // 2], bad[bad >= size // 2]
+        first = int(head.max()) + 1 if head.size else 0
+        last = int(tail.min()) if tail.size else size
+        if last - first < max(2, (length + 1) // 2):
+            break
+        keep = np.arange(first, last, dtype=np.intp)
+        result = finish_path(subset_path(result.path, keep), tool, kins, scene, options,
+                             surfaces)
+    result.trimmed = length - len(result.path)
+    return result
+
+
+def plan_fillet(surfaces: ImpellerSurfaces, tool: Tool, main_radius: float, kins: Kinematics,
+                scene: CollisionScene, options: FinishOptions, *, scene_source: str,
+                progress: Callable[[int, int, str], None] | None = None) -> FinishResult:
+    """Finish the fillet pencil passes of every passage with ``tool``.
+
+    Parameters
+    ----------
+    surfaces : ImpellerSurfaces
+    tool : Tool
+        Ball-end mill of radius at most the fillet radius (``check_fillet_tool``).
+    main_radius : float
+        Ball radius of the blade and hub finishing, mm (how far beyond the fillet the
+        passes go, ``fillet_paths``).
+    kins, scene, options, scene_source, progress
+        As ``plan.plan_finishing`` (the same options: scallop, spacing, rules).
+
+    Returns
+    -------
+    FinishResult
+        Paths of operation ``"fillet"`` in passage order.
+    """
+    check_fillet_tool(tool, float(surfaces.spec.fillet_radius))
+    base = fillet_passes(surfaces, tool.radius, main_radius, options.scallop_mm,
+                         options.point_spacing_mm)
+    return _finish_all(base, surfaces, tool, kins, scene, options, scene_source, progress)
+
+
+def plan_edges(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
+               scene: CollisionScene, options: FinishOptions, *, scene_source: str,
+               progress: Callable[[int, int, str], None] | None = None) -> FinishResult:
+    """Finish the passes round the blade edges of every passage with ``tool``.
+
+    Parameters as ``plan_fillet`` (``tool``: the blade and hub finishing ball; the
+    span levels at its scallop stepover).
+
+    Returns
+    -------
+    FinishResult
+        Paths of operation ``"edge"`` in passage order.
+    """
+    base = edge_passes(surfaces, tool.radius, scallop_stepover(tool.radius, options.scallop_mm),
+                       options.point_spacing_mm)
+    return _finish_all(base, surfaces, tool, kins, scene, options, scene_source, progress)
+
+
+def _finish_all(base: list[CutterPath], surfaces: ImpellerSurfaces, tool: Tool,
+                kins: Kinematics, scene: CollisionScene, options: FinishOptions,
+                scene_source: str, progress: Callable[[int, int, str], None] | None
+                ) -> FinishResult:
+    """Every passage's rotation of ``base``, each path finished (``finish_trimmed``)."""
+    blades = surfaces.spec.blades
+    count = blades if options.passages is None else min(options.passages, blades)
+    ordered: list[CutterPath] = []
+    for k in range(count):
+        ordered += [p if k == 0 else rotate_path(p, k, surfaces.spec.pitch) for p in base]
+    results: list[PathResult] = []
+    for i, path in enumerate(ordered):
+        results.append(finish_trimmed(path, tool, kins, scene, options, surfaces))
+        if progress is not None:
+            progress(i + 1, len(ordered), path.name)
+    return FinishResult(results, tool, options, scene_source)

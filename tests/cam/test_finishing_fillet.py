@@ -1,0 +1,282 @@
+"""Fillet finishing (issue 28): pencil passes across the blade-to-hub fillets.
+
+* Geometry: the cusp of the angular step is the scallop; every arc pass's ball lies
+  inside the rolling ball of the fillet (it cannot gouge), a ball of the fillet's
+  radius runs on the spine; the passes beyond the fillet touch the hub.
+* Tool choice: the library's largest ball no larger than the fillet; a larger one,
+  a non-ball or a design without fillet is refused (exit 2, nothing written).
+* Whole runs (small fixture, a generated design with round trailing edges): the
+  fillet operation has its own tool and APT file, its postures are collision-free
+  (and in an independent fcl check), reversal-free, post for LinuxCNC and Fanuc, and
+  the swept balls leave at most the scallop height on the fillet samples.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cam.cli import main
+from cam.finishing.command import run_finish
+from cam.finishing.fillet_cover import edge_samples, fillet_samples, material_left
+from cam.finishing.fillet_paths import arc_step, fillet_passes, fillet_section
+from cam.finishing.fillet_plan import check_fillet_tool, choose_fillet_tool
+from cam.finishing.paths import passage_walls
+from cam.finishing.posture import rotate_about_z
+from cam.tools import resolve_tool
+from geometry.design import load_design, write_design
+from geometry.spec import load_spec
+from geometry.surfaces import build_surfaces
+from impeller_cam.errors import InputError
+from postproc.apt import read_apt
+from postproc.command import post_text
+from tests.cam.test_finishing_run import independent_check, passes_of
+
+ROOT = Path(__file__).resolve().parents[2]
+IMPELLERS = ROOT / "fixtures" / "impellers"
+MACHINE = ROOT / "fixtures" / "machines" / "xyzac-trt.toml"
+#: Small tapered balls for the small fixture's 1 mm fillet (the bundled library has
+#: none that small).
+SMALL_BALLS = """
+[[tool]]
+name = "ball2_taper"
+number = 4
+type = "ball"
+diameter_mm = 2.0
+flute_length_mm = 6.0
+shank_diameter_mm = 6.0
+taper_deg = 3.0
+stickout_mm = 45.0
+spindle_rpm = 24000
+feed_mm_min = 600
+[[tool.holder]]
+length_mm = 35.0
+bottom_diameter_mm = 14.0
+top_diameter_mm = 19.0
+
+[[tool]]
+name = "ball1.6_taper"
+number = 5
+type = "ball"
+diameter_mm = 1.6
+flute_length_mm = 5.0
+shank_diameter_mm = 6.0
+taper_deg = 3.0
+stickout_mm = 45.0
+spindle_rpm = 24000
+feed_mm_min = 500
+[[tool.holder]]
+length_mm = 35.0
+bottom_diameter_mm = 14.0
+top_diameter_mm = 19.0
+"""
+
+
+@pytest.fixture(scope="module")
+def library(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("tools") / "small_balls.toml"
+    path.write_text(SMALL_BALLS)
+    return path
+
+
+@pytest.fixture(scope="module")
+def round_te(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The small design with round trailing edges (the generator's output)."""
+    params = replace(load_design(IMPELLERS / "small" / "design.toml"), name="small_round_te",
+                     trailing_edge="round")
+    return write_design(params, tmp_path_factory.mktemp("round_te") / "small_round_te")
+
+
+@pytest.mark.parametrize(("fillet", "ball", "scallop"),
+                         [(2.5, 2.0, 0.5), (2.5, 2.0, 0.02), (1.0, 0.8, 0.1), (3.0, 1.0, 0.05)])
+def test_the_angular_step_leaves_the_scallop_height(fillet: float, ball: float,
+                                                   scallop: float) -> None:
+    step = arc_step(fillet, ball, scallop)
+    rho, a = fillet - ball, 0.5 * step
+    cusp = fillet - rho * math.cos(a) - math.sqrt(ball**2 - (rho * math.sin(a)) ** 2)
+    assert 0 < step < math.pi
+    assert cusp == pytest.approx(scallop, abs=1e-9)
+
+
+@pytest.mark.parametrize("name", ["small", "round_te"])
+@pytest.mark.parametrize("ball", [0.6, 1.0])
+def test_pencil_balls_stay_inside_the_rolling_ball(name: str, ball: float,
+                                                   round_te: Path) -> None:
+    """Arc passes: the ball lies inside the fillet's rolling ball (|q - c| <= r_f - r, the
+    nearest of 6,000 spine samples); ``r = r_f``: one pass on the spine. Passes beyond
+    the fillet touch the hub at r; no ball goes below the hub."""
+    from scipy.spatial import cKDTree
+
+    from cam.finishing.fillet_paths import wall_interval
+
+    spec = IMPELLERS / "small" / "spec.toml" if name == "small" else round_te
+    surfaces = build_surfaces(load_spec(spec))
+    fillet = surfaces.spec.fillet_radius
+    paths = fillet_passes(surfaces, ball, 2.0, 0.1, 0.5)
+    walls = [w for pair in passage_walls(surfaces) for w in pair]
+    assert {p.wall.label for p in paths if p.wall} == {w.label for w in walls}
+    for wall in walls:
+        mine = [p for p in paths if p.wall is not None and p.wall.label == wall.label]
+        spine = fillet_section(surfaces, wall, np.linspace(*wall_interval(wall.side, 8),
+                                                           6000)).centre
+        tree = cKDTree(spine)
+        gap = [float(tree.query(p.centre)[0].max()) for p in mine]
+        arc = [p for p, g in zip(mine, gap, strict=True) if g <= fillet - ball + 0.03]
+        assert arc, wall.label
+        if ball == fillet:  # the paper's case: one pass on the spine
+            assert len(arc) == 1 and gap[mine.index(arc[0])] < 0.03
+        hub = [p for p in mine if np.allclose(surfaces.hub.signed_distance(p.centre), ball,
+                                              atol=1e-6)]
+        assert hub, "passes beyond the fillet on the hub"
+        for p in mine:
+            assert np.linalg.norm(np.diff(p.centre, axis=0), axis=1).max() <= 0.5 + 1e-9
+            assert surfaces.hub.signed_distance(p.centre).min() >= ball - 1e-6
+
+
+@pytest.mark.parametrize("name", ["small", "round_te"])
+def test_edge_passes_wrap_the_edges_at_the_ball_radius(name: str, round_te: Path) -> None:
+    """Every edge pass's ball touches the blade outline and stays outside the blade
+    (``body_distance``, exact for round edges) and clear of the hub; the passes run from
+    the suction to the pressure side of the edge."""
+    from cam.finishing.edge_paths import HUB_CLEARANCE_MM, edge_passes
+    from cam.finishing.paths import body_distance
+
+    spec = IMPELLERS / "small" / "spec.toml" if name == "small" else round_te
+    surfaces = build_surfaces(load_spec(spec))
+    radius = 2.0
+    paths = edge_passes(surfaces, radius, 0.8, 0.5)
+    edges = {p.name.split(".")[3] for p in paths}
+    assert edges == ({"leading_edge", "trailing_edge"} if name == "round_te"
+                     else {"leading_edge"})
+    blade = surfaces.blades[0]
+    for which in edges:
+        mine = [p for p in paths if f".{which}." in p.name]
+        assert len(mine) >= 2
+        for p in mine:
+            assert (surfaces.hub.signed_distance(p.centre) - radius).min() >= \
+                HUB_CLEARANCE_MM - 1e-9
+            assert np.linalg.norm(np.diff(p.centre, axis=0), axis=1).max() <= 0.5 + 1e-9
+            # contact normals turn from the suction side round to the pressure side
+            assert float(p.normal[0] @ p.normal[-1]) < -0.5
+            if which == "leading_edge" or surfaces.spec.trailing_edge == "round":
+                gap = body_distance(blade, p.centre) - radius
+                assert gap.min() > -2e-2 and np.median(np.abs(gap)) < 2e-2
+
+
+def test_the_fillet_tool_is_the_largest_ball_that_fits() -> None:
+    chosen = choose_fillet_tool(2.5)
+    assert chosen is not None and chosen.name == "ball4_taper"
+    assert choose_fillet_tool(3.0) is not None and choose_fillet_tool(3.0).radius == 3.0
+    assert choose_fillet_tool(1.0) is None  # no ball of 2 mm in the bundled library
+    assert choose_fillet_tool(0.0) is None
+    with pytest.raises(InputError, match="larger than the fillet"):
+        check_fillet_tool(resolve_tool("ball6_taper"), 2.5)
+    with pytest.raises(InputError, match="ball-end"):
+        check_fillet_tool(resolve_tool("flat10"), 6.0)
+    with pytest.raises(InputError, match="no blade-to-hub fillet"):
+        check_fillet_tool(resolve_tool("ball4_taper"), 0.0)
+
+
+def test_a_fillet_tool_larger_than_the_fillet_exits_2_writing_nothing(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "out"
+    code = main(["finish", str(IMPELLERS / "nine_blade" / "spec.toml"), "-m", str(MACHINE),
+                 "-t", "ball6_taper", "-o", str(out), "--fillet-tool", "ball6_taper"])
+    assert code == 2
+    assert "larger than the fillet" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_the_spec_names_the_fillet_tool_and_a_bad_one_is_refused(tmp_path: Path) -> None:
+    from cam.inputs import check_run_inputs
+    from cam.run.settings import resolve_settings
+
+    text = (IMPELLERS / "nine_blade" / "spec.toml").read_text()
+    spec = IMPELLERS / "nine_blade" / "spec.toml"
+    good = tmp_path / "good.toml"
+    good.write_text(text.replace('finish_tool = "ball6_taper"',
+                                 'finish_tool = "ball6_taper"\nfillet_tool = "ball4_taper"'))
+    _copy_camber(spec.parent, tmp_path)
+    assert resolve_settings(good).fillet_tool == "ball4_taper"
+    check_run_inputs(good, MACHINE)
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace('finish_tool = "ball6_taper"',
+                                'finish_tool = "ball6_taper"\nfillet_tool = "ball6_taper"'))
+    with pytest.raises(InputError) as error:
+        check_run_inputs(bad, MACHINE)
+    assert error.value.field == "machining.fillet_tool"
+    typo = tmp_path / "typo.toml"
+    typo.write_text(text.replace('finish_tool = "ball6_taper"',
+                                 'finish_tool = "ball6_taper"\nfilet_tool = "ball4_taper"'))
+    with pytest.raises(InputError):
+        resolve_settings(typo)
+
+
+def _copy_camber(source: Path, target: Path) -> None:
+    for csv in source.glob("*.csv"):
+        (target / csv.name).write_text(csv.read_text())
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("name", "ball"), [("small", "ball1.6_taper"),
+                                            ("round_te", "ball2_taper")])
+def test_fillet_finishing_is_clean_and_covers_the_fillet(name: str, ball: str, library: Path,
+                                                         round_te: Path,
+                                                         tmp_path: Path) -> None:
+    spec = IMPELLERS / "small" / "spec.toml" if name == "small" else round_te
+    scallop = 0.1
+    document = run_finish(spec, MACHINE, "ball4_taper", tmp_path / "out",
+                          fillet_tool=f"{library}:{ball}", progress=False, plots=False,
+                          passages=1, scallop_mm=scallop, point_spacing_mm=1.0,
+                          blade_passes=False, hub_passes=False)
+    fillet, edge = document["operations"]["fillet"], document["operations"]["edge"]
+    assert fillet["tool"]["name"] == ball and fillet["apt"] == "finish_fillet.apt"
+    assert edge["tool"]["name"] == "ball4_taper" and edge["apt"] == "finish_edge.apt"
+    assert fillet["link_collisions"] == edge["link_collisions"] == 0
+    entries = [e for e in document["paths"] if e["operation"] in ("fillet", "edge")]
+    assert len(entries) == fillet["paths"] + edge["paths"] and fillet["paths"] > 0
+    for entry in entries:
+        assert entry["reversals_after"] == {"A": 0, "C": 0}, entry["name"]
+        assert entry["collisions"] == 0 and entry["motion_collisions"] == 0, entry["name"]
+        assert entry["min_clearance_mm"] >= document["options"]["clearance_mm"]
+        assert entry["rule_violation_points"] == [] and not entry["smaller_tool_needed"]
+    tool = resolve_tool(f"{library}:{ball}")
+    out = tmp_path / "out"
+    toolpaths = read_apt(out / "finish_fillet.apt")
+    hits, clearance, count = independent_check(
+        out / "scene.stl", toolpaths, tool, document["options"]["cutter_allowance_mm"])
+    assert count == fillet["poses"] and hits == 0
+    assert clearance >= document["options"]["clearance_mm"] - 0.02
+    for post in ("linuxcnc", "fanuc"):
+        assert f"T{tool.number}" in post_text(out / "finish_fillet.apt", MACHINE, post=post)
+    # coverage: the swept balls of the fillet passes alone (feed moves read back from
+    # the APT file) leave at most the scallop height on the fillet
+    surfaces = build_surfaces(load_spec(spec))
+    passes = [tip + tool.radius * axis for tp in toolpaths for tip, axis in passes_of(tp)]
+    for wall in [w for pair in passage_walls(surfaces) for w in pair]:
+        left = material_left(fillet_samples(surfaces, wall, 400, 15), passes, tool.radius)
+        assert left.max() <= scallop + 0.01, (wall.label, float(left.max()))
+    # the edge passes (main ball) and the fillet passes (which wrap half of each edge
+    # from either side: blade 0's suction side is the last passage's, the rotation of
+    # passage 0's blade 1 suction side) leave at most the scallop on blade 0's leading
+    # edge and a round trailing edge, above the ball-and-hub contact
+    main = resolve_tool("ball4_taper")
+    edge_paths = read_apt(out / "finish_edge.apt")
+    hits, clearance, count = independent_check(
+        out / "scene.stl", edge_paths, main, document["options"]["cutter_allowance_mm"])
+    assert count == edge["poses"] and hits == 0
+    edge_passes = [tip + main.radius * axis for tp in edge_paths
+                   for tip, axis in passes_of(tp)]
+    edges = ["leading_edge"] + (["trailing_edge"] if name == "round_te" else [])
+    assert edge["paths"] == sum(1 for e in entries if e["operation"] == "edge")
+    for which in edges:
+        assert any(f".{which}." in e["name"] for e in entries), which
+        samples = edge_samples(surfaces, surfaces.blades[0], which, main.radius, 60, 12)
+        back = [rotate_about_z(c, -surfaces.spec.pitch) for c in passes]
+        left = np.minimum(material_left(samples, edge_passes, main.radius),
+                          material_left(samples, passes + back, tool.radius))
+        assert left.max() <= scallop + 0.01, (which, float(left.max()))
