@@ -22,6 +22,7 @@ from impeller_cam.errors import InputError
 from impeller_cam.schema import load_toml, suggest, validate
 from postproc.kinematics.base import first_over_travel, over_travel_error
 from postproc.kinematics.registry import joint_names_for
+from postproc.machine_model import MachineModel, model_from_table
 from postproc.machine_schema import AxisTable, MachineFile
 
 #: Rotary axis letters; every other axis is linear.
@@ -152,6 +153,8 @@ class Machine:
         The TOML it was read from.
     description : str
         Free text (provenance of the numbers).
+    model : MachineModel or None
+        The machine's own solids (``[model]``, docs/machine-model.md).
     """
 
     name: str
@@ -164,6 +167,7 @@ class Machine:
     table: TableGeometry | None = None
     source: Path | None = None
     description: str = ""
+    model: MachineModel | None = None
 
     @property
     def axis_names(self) -> tuple[str, ...]:
@@ -322,6 +326,7 @@ def machine_from_dict(data: Mapping[str, Any], source: str | Path | None = None)
         table=table,
         source=file,
         description=doc.description,
+        model=None if doc.model is None else model_from_table(doc.model, names, file),
     )
 
 

@@ -13,6 +13,7 @@ from typing import Annotated
 from pydantic import Field, model_validator
 
 from impeller_cam.schema import Strict, quantity
+from postproc.machine_model_schema import ModelTable
 
 __all__ = ["AxisTable", "MachineFile", "ServoTable"]
 
@@ -110,3 +111,4 @@ class MachineFile(Strict):
     pivot: PivotTable = quantity(default_factory=PivotTable.defaults)
     axes: AxesTable = quantity(description="one table per joint")
     table: TableTable | None = quantity(None, description="rotary table geometry")
+    model: ModelTable | None = quantity(None, description="the machine's own solids")

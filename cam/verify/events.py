@@ -15,6 +15,7 @@ import numpy as np
 EVENT_TYPES: tuple[str, ...] = (
     "rapid_in_stock",
     "holder_collision",
+    "machine_collision",
     "gouge",
     "overtravel",
     "excess",
@@ -37,8 +38,9 @@ class Event:
     position : tuple of float
         Where, mm, workpiece frame (tool tip at the block end, or the deepest point).
     amount : float
-        Size of the finding: mm of depth (gouge, excess, rapid cut, holder overlap) or
-        how far past the limit (overtravel, mm or deg).
+        Size of the finding: mm of depth (gouge, excess, rapid cut, holder overlap),
+        how far past the limit (overtravel, mm or deg) or how far inside the pair's
+        clearance (machine_collision, mm).
     message : str
         One human-readable sentence.
     details : dict
