@@ -88,6 +88,9 @@ class Solid:
         ``(size (3,), centre (3,))`` of an axis-aligned box (exact fcl box).
     cylinder : tuple or None
         ``(radius, length, rotation (3, 3), centre (3,))`` (exact fcl cylinder).
+    pieces : tuple of (p, 3) float64
+        Points whose convex hulls, together, hold the solid (distances are taken to
+        them instead of the mesh: a non-convex part as a few convex pieces).
     """
 
     name: str
@@ -97,6 +100,7 @@ class Solid:
     faces: NDArray[np.int64]
     box: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
     cylinder: tuple[float, float, NDArray[np.float64], NDArray[np.float64]] | None = None
+    pieces: tuple[NDArray[np.float64], ...] = ()
 
     @property
     def centre(self) -> NDArray[np.float64]:

@@ -47,6 +47,7 @@ __all__ = [
     "machine_scene",
     "machine_scene_for",
     "machine_summary",
+    "pose_distance",
     "render_worst_pose",
     "scene_summary",
 ]
@@ -67,10 +68,11 @@ class MachineScene:
     gauge: float
     step: float
     tilt: str
-    objects: list[Any] = field(default_factory=list)
+    objects: list[list[Any]] = field(default_factory=list)
 
 
 def _convex_hull(points: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+    """Vertices and outward triangles of the convex hull of ``points`` (p, 3)."""
     import trimesh
 
     hull = trimesh.convex.convex_hull(points)
@@ -138,33 +140,63 @@ def _part_profile(stock: Any, slab: float = 2.0) -> NDArray[np.float64]:
     return np.asarray(points)
 
 
-def _part_solid(stock: Any) -> Solid:
-    """The stock's material as a solid of revolution about the C axis (group C)."""
+def _part_solid(stock: Any, piece_height: float = 10.0) -> Solid:
+    """The stock's material as a solid of revolution about the C axis (group C).
+
+    Distances are taken to convex pieces: the hulls of the profile's rings over
+    ``piece_height`` mm of height each (they hold the staircase, so they hold the part).
+    """
     from cam.collision.tool_mesh import revolve
 
-    mesh = revolve(_part_profile(stock), 48)
+    profile = _part_profile(stock)
+    mesh = revolve(profile, 48)
+    scale = 1.0 / math.cos(math.pi / 24)
+    angle = np.linspace(0.0, 2.0 * math.pi, 24, endpoint=False)
+    ring = np.column_stack([np.cos(angle), np.sin(angle)]) * scale
+    inner = profile[1:-1]
+    z0 = float(inner[0, 1])
+    slot = np.minimum(((inner[:, 1] - z0) / piece_height).astype(np.int64),
+                      int((inner[-1, 1] - z0 - 1e-9) // piece_height))
+    pieces = []
+    for k in np.unique(slot):
+        rows = inner[slot == k]
+        # the piece also reaches its neighbours' end heights, so the pieces overlap
+        lo = float(rows[0, 1]) if k == slot[0] else float(inner[slot == k - 1][-1, 1])
+        pts = [np.column_stack([r * ring, np.full(24, z)]) for r, z in rows]
+        pts.append(np.column_stack([rows[0, 0] * ring, np.full(24, lo)]))
+        pieces.append(np.vstack(pts))
     return Solid("part", "C", "stl", np.asarray(mesh.vertices, np.float64),
-                 np.asarray(mesh.faces, np.int64))
+                 np.asarray(mesh.faces, np.int64), pieces=tuple(pieces))
 
 
-def _fcl_object(solid: Solid) -> Any:
+def _convex(points: NDArray[np.float64]) -> Any:
+    vertices, faces = _convex_hull(points)
+    flat = np.hstack([np.full((len(faces), 1), 3), faces]).ravel()
+    return fcl.CollisionObject(fcl.Convex(vertices, len(faces), flat), fcl.Transform())
+
+
+def _fcl_objects(solid: Solid) -> list[Any]:
+    """fcl objects whose union is the solid (one, or one per convex piece)."""
+    if solid.pieces:
+        return [_convex(points) for points in solid.pieces]
     if solid.box is not None:
         geometry = fcl.Box(*solid.box[0])
     elif solid.cylinder is not None:
         geometry = fcl.Cylinder(solid.cylinder[0], solid.cylinder[1])
     elif solid.kind == "convex":
-        flat = np.hstack([np.full((len(solid.faces), 1), 3), solid.faces]).ravel()
-        geometry = fcl.Convex(solid.vertices, len(solid.faces), flat)
+        return [_convex(solid.vertices)]
     else:
         geometry = fcl.BVHModel()
         geometry.beginModel(len(solid.vertices), len(solid.faces))
         geometry.addSubModel(solid.vertices, solid.faces)
         geometry.endModel()
-    return fcl.CollisionObject(geometry, fcl.Transform())
+    return [fcl.CollisionObject(geometry, fcl.Transform())]
 
 
 def _local(solid: Solid) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Placement of the fcl geometry in its group frame (rotation, centre)."""
+    if solid.pieces:
+        return np.eye(3), np.zeros(3)
     if solid.box is not None:
         return np.eye(3), solid.box[1]
     if solid.cylinder is not None:
@@ -201,7 +233,7 @@ def machine_scene(model: MachineModel, tool: Any, stock: Any) -> MachineScene:
             elif a.group != solids[j].group:
                 left_out.append((a.name, solids[j].name, reason))
     scene = MachineScene(solids, pairs, left_out, gauge, model.step, model.tilt)
-    scene.objects = [_fcl_object(s) for s in solids]
+    scene.objects = [_fcl_objects(s) for s in solids]
     return scene
 
 
@@ -256,36 +288,36 @@ def _sample_plan(poser: Any, n_blocks: int, scene: MachineScene, rho: dict[str, 
 
 
 def _scan_pair(
-    scene: MachineScene, kins: Any, pair: tuple[int, int, float], joints: NDArray,
+    scene: MachineScene, poses: dict[str, Any], pair: tuple[int, int, float],
     centres: NDArray, motion: NDArray, state: dict[str, Any]
 ) -> list[tuple[int, float, float]]:
     """Conservative advancement of one pair over one chunk of samples.
 
-    Returns ``(sample, distance, previous)`` where the distance is below the pair's
-    clearance; ``previous`` is the distance at the sample before (``inf`` when that
-    one was farther than the clearance). ``state`` carries, per pair, the motion bound
-    since its last check (mm), how far it may go, and the last exact distance with
-    its global sample index; also the program's ``best`` and the query count.
+    ``poses`` are the chunk's group poses (``group_poses``), ``centres`` (m, solids, 3)
+    the bounding-sphere centres, ``motion`` (m,) the pair's motion bound from the sample
+    before. Returns ``(sample, distance, previous)`` where the distance is below the
+    pair's clearance; ``previous`` is the distance at the sample before (``inf`` when
+    that one was farther than the clearance). ``state`` carries, per pair, the motion
+    bound since its last check (mm), how far it may go, and the last exact distance
+    with its global sample index; also the program's ``best`` and the query count.
     """
     i, j, clearance = pair
     a, b = scene.solids[i], scene.solids[j]
-    key = (i, j)
-    cum0, margin, last = state["pairs"].get(key, (0.0, -1.0, (-2, math.inf)))
+    cum0, margin, last = state["pairs"].get((i, j), (0.0, -1.0, (-2, math.inf)))
     cumulative = cum0 + np.cumsum(motion)  # bound moved since the last check at each sample
+    lower_bound = np.linalg.norm(centres[:, i] - centres[:, j], axis=1) - (a.radius + b.radius)
     base = 0.0
     hits: list[tuple[int, float, float]] = []
-    s, n, offset = 0, len(joints), state["offset"]
-    reach = a.radius + b.radius
+    s, n, offset = 0, len(motion), state["offset"]
     while s < n:
-        s = int(np.searchsorted(cumulative - base, margin, side="left")) if margin > 0 else s
-        if s >= n:
-            break
-        lower = float(np.linalg.norm(centres[s, i] - centres[s, j])) - reach
+        if margin > 0:
+            s = int(np.searchsorted(cumulative, base + margin, side="left"))
+            if s >= n:
+                break
         threshold = max(clearance, state["best"] - scene.step)
-        if lower >= threshold:
-            distance = lower
-        else:
-            distance = _distance(scene, kins, i, j, joints[s])
+        distance = float(lower_bound[s])
+        if distance < threshold:
+            distance = _distance(scene, poses, i, j, s)
             state["exact"] += 1
             if distance < state["best"]:
                 state["best"] = distance
@@ -297,21 +329,33 @@ def _scan_pair(
         base = float(cumulative[s])
         margin = distance - max(clearance, state["best"] - scene.step)
         s += 1
-    state["pairs"][key] = (float(cumulative[-1] - base) if n else cum0, margin, last)
+    state["pairs"][(i, j)] = (float(cumulative[-1] - base) if n else cum0, margin, last)
     return hits
 
 
-def _distance(scene: MachineScene, kins: Any, i: int, j: int, joints: NDArray) -> float:
-    """fcl distance of solids ``i`` and ``j`` at one joint vector (0: they overlap)."""
-    poses = group_poses(kins, joints[None, :], scene.gauge, scene.tilt)
+def _distance(scene: MachineScene, poses: dict[str, Any], i: int, j: int, s: int) -> float:
+    """fcl distance of solids ``i`` and ``j`` at sample ``s`` of ``poses`` (0: overlap)."""
     for k in (i, j):
         solid = scene.solids[k]
-        rot, trans = poses[solid.group]
+        rot, trans = poses[solid.group][0][s], poses[solid.group][1][s]
         turn, centre = _local(solid)
-        scene.objects[k].setTransform(fcl.Transform(rot[0] @ turn, rot[0] @ centre + trans[0]))
-    result = fcl.DistanceResult()
-    value = fcl.distance(scene.objects[i], scene.objects[j], fcl.DistanceRequest(), result)
-    return max(float(value), 0.0)
+        placed = fcl.Transform(rot @ turn, rot @ centre + trans)
+        for item in scene.objects[k]:
+            item.setTransform(placed)
+    request = fcl.DistanceRequest()
+    value = math.inf
+    for first in scene.objects[i]:
+        for second in scene.objects[j]:
+            value = min(value, float(fcl.distance(first, second, request,
+                                                  fcl.DistanceResult())))
+    return max(value, 0.0)
+
+
+def pose_distance(scene: MachineScene, kins: Any, i: int, j: int,
+                  joints: NDArray[np.float64]) -> float:
+    """fcl distance of solids ``i`` and ``j`` at one joint vector (5,), mm."""
+    poses = group_poses(kins, np.asarray(joints, np.float64)[None, :], scene.gauge, scene.tilt)
+    return _distance(scene, poses, i, j, 0)
 
 
 def _radii(scene: MachineScene, kins: Any) -> dict[str, float]:
@@ -374,8 +418,7 @@ def check_program(scene: MachineScene, kins: Any, program: Any, name: str,
         before = state["worst"]
         for pair in scene.pairs:
             motion = moved[:, pair[0]] + moved[:, pair[1]]
-            for s, distance, before in _scan_pair(scene, kins, pair, joints, centres, motion,
-                                                  state):
+            for s, distance, before in _scan_pair(scene, poses, pair, centres, motion, state):
                 b = int(block[start + s])
                 key = (b, pair[0], pair[1])
                 if key not in found:  # the block's first sample below the clearance

@@ -61,11 +61,12 @@ def render_machine(scene: Any, kins: Any, joints: NDArray[np.float64], title: st
             colour = "#d0453a" if "part" in highlight else "#5f9e5f"
         plotter.add_mesh(mesh, color=colour, opacity=0.55 if solid.name == "part" else 1.0,
                          show_edges=False, smooth_shading=False)
-    plotter.camera_position = "iso"
-    plotter.camera.azimuth = 200.0
-    plotter.camera.elevation = 5.0
+    # from the operator's side (-Y), to the right and above, Z up
+    plotter.camera.focal_point = (0.0, 0.0, 0.0)
+    plotter.camera.position = (900.0, -1500.0, 900.0)
+    plotter.camera.up = (0.0, 0.0, 1.0)
     plotter.reset_camera()  # type: ignore[call-arg]
-    plotter.camera.zoom(1.3)
+    plotter.camera.zoom(1.2)
     if title:
         plotter.add_text(title, font_size=10, color="black")
     image = plotter.screenshot(return_img=True)

@@ -14,7 +14,7 @@ import tomli_w
 from cam.cli import main
 from cam.tools import resolve_tool
 from cam.verify.command import VerifyOptions, run_verify
-from cam.verify.machine_check import _distance, check_program, machine_scene_for
+from cam.verify.machine_check import check_program, machine_scene_for, pose_distance
 from cam.verify.motion import block_poser
 from cam.verify.sources import load_stock
 from impeller_cam.errors import InputError
@@ -111,7 +111,7 @@ def test_advancement_finds_the_sampled_minimum(tmp_path: Path,
     for b in range(len(program)):
         for joints in poser.machine_joints(np.full(len(frac), b), frac):
             for i, j, _ in scene.pairs:
-                brute = min(brute, _distance(scene, kins, i, j, joints))
+                brute = min(brute, pose_distance(scene, kins, i, j, joints))
     assert brute - 0.05 <= check.smallest <= brute + scene.step
     assert check.exact < check.samples * len(scene.pairs) / 4  # most poses skipped
 
