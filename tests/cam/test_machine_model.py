@@ -193,3 +193,33 @@ def test_an_stl_component_is_checked(tmp_path: Path) -> None:
     check = check_program(scene, kins, read_nc(_program(tmp_path, 29.5)), "tilt")
     assert {tuple(e.details["components"]) for e in check.events} == {
         ("spindle_nose", "rotary_table")}
+
+
+# ----------------------------------------------------------------------------- report
+def test_the_chain_report_shows_the_clearance_and_the_worst_pose(tmp_path: Path) -> None:
+    """verify/*/verify.json's machine keys reach the report: a summary card and a table
+    with the picture of the worst pose (numbers copied, not recomputed)."""
+    from cam.report.inputs import RunFolder
+    from cam.report.machine import machine_check, machine_clearance_part
+    from tests.cam.report_sample import png_bytes
+
+    folder = tmp_path / "run"
+    finish = folder / "verify" / "finish"
+    finish.mkdir(parents=True)
+    document = {
+        "programs": [{"name": "finish_hub.ngc", "machine_clearance_mm": 6.4,
+                      "machine_clearance_pair": ["spindle_head", "rotary_table"],
+                      "machine_clearance_line": 16,
+                      "machine_clearance_joints": [2.7, -24.4, 78.2, -94.8, -76.0]}],
+        "event_counts": {"machine_collision": 0},
+        "machine_model": {"components": [], "pairs_checked": [], "pairs_left_out": []},
+    }
+    (finish / "verify.json").write_text(json.dumps(document))
+    (finish / "machine_1_finish_hub.png").write_bytes(png_bytes())
+    run = RunFolder(folder)
+    card = machine_check(run)
+    assert card is not None and card[1] is True
+    assert "finish 6.4 mm (finish_hub.ngc)" in card[2]
+    part = machine_clearance_part(run)
+    assert "spindle_head - rotary_table" in part and "-94.8" in part
+    assert part.count("data:image/png;base64,") == 1
