@@ -421,10 +421,11 @@ def check_program(scene: MachineScene, kins: Any, program: Any, name: str,
             for s, distance, before in _scan_pair(scene, poses, pair, centres, motion, state):
                 b = int(block[start + s])
                 key = (b, pair[0], pair[1])
-                if key not in found:  # the block's first sample below the clearance
-                    opens = b == 0 or int(block[start + s - 1]) != b if start + s else True
-                    found[key] = (math.inf, before if opens else math.inf)
-                found[key] = (min(found[key][0], distance), found[key][1])
+                # the block's first sample below the clearance: the one before it (the
+                # block's start, or a sample of it at or beyond the clearance) sets the
+                # distance the block started from
+                at_start = found.get(key, (math.inf, before))[1]
+                found[key] = (min(found.get(key, (math.inf, 0.0))[0], distance), at_start)
         if state["worst"] is not None and state["worst"] != before:
             worst_joints = joints[state["worst"][0] - start].copy()
         previous = joints[-1].copy()
