@@ -22,6 +22,7 @@ from impeller_cam.errors import InputError
 from impeller_cam.schema import load_toml, suggest, validate
 from postproc.kinematics.base import first_over_travel, over_travel_error
 from postproc.kinematics.registry import joint_names_for
+from postproc.machine_model import MachineModel, model_from_table
 from postproc.machine_schema import AxisTable, MachineFile
 
 #: Rotary axis letters; every other axis is linear.
@@ -157,6 +158,8 @@ class Machine:
     control_options : Mapping[str, str or bool]
         Options of the control's dialect (``[control.options]``), checked when a
         program is posted with that dialect.
+    model : MachineModel or None
+        The machine's own solids (``[model]``, docs/machine-model.md).
     """
 
     name: str
@@ -172,6 +175,7 @@ class Machine:
     control_model: str = ""
     control_options: Mapping[str, str | bool] = field(
         default_factory=lambda: MappingProxyType({}))
+    model: MachineModel | None = None
 
     @property
     def axis_names(self) -> tuple[str, ...]:
@@ -342,6 +346,7 @@ def machine_from_dict(data: Mapping[str, Any], source: str | Path | None = None)
         description=doc.description,
         control_model="" if control is None else control.model,
         control_options=MappingProxyType({} if control is None else dict(control.options)),
+        model=None if doc.model is None else model_from_table(doc.model, names, file),
     )
 
 

@@ -13,6 +13,7 @@ from typing import Annotated
 from pydantic import Field, model_validator
 
 from impeller_cam.schema import Strict, quantity
+from postproc.machine_model_schema import ModelTable
 
 __all__ = ["AxisTable", "ControlTable", "MachineFile", "ServoTable"]
 
@@ -123,3 +124,4 @@ class MachineFile(Strict):
     axes: AxesTable = quantity(description="one table per joint")
     table: TableTable | None = quantity(None, description="rotary table geometry")
     control: ControlTable | None = quantity(None, description="numerical control and options")
+    model: ModelTable | None = quantity(None, description="the machine's own solids")

@@ -23,6 +23,7 @@ from cam.report.html import (
     table,
 )
 from cam.report.inputs import RunFolder
+from cam.report.machine import machine_check, machine_clearance_part
 
 __all__ = ["REGIONS", "VERIFY_RUNS", "events_section", "summary_checks", "summary_section"]
 
@@ -136,6 +137,9 @@ def summary_checks(folder: RunFolder) -> list[tuple[str, bool | None, str]]:
         else:
             checks.append((name, total == 0, detail))
     checks.append(_excess_check(folder))
+    machine = machine_check(folder)
+    if machine is not None:
+        checks.append(machine)
     return checks
 
 
@@ -267,6 +271,9 @@ def events_section(folder: RunFolder) -> Section:
         parts.append(table(["Verification", *kinds, "all events", "listed"], counts_rows,
                            caption="Events found per type"))
     parts += groups
+    clearance = machine_clearance_part(folder)
+    if clearance:
+        parts.append(clearance)
     if any(row[-1] for row in counts_rows):
         parts.append(note("Events as listed in verify/*/verify.json \"events\" (at most 200 "
                           "per program and type, largest first); the NC block is that line "

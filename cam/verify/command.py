@@ -20,6 +20,13 @@ from numpy.typing import NDArray
 
 from cam.verify.deviation import DesignDistance, Deviation, grouped_extremes
 from cam.verify.events import EVENT_TYPES, Event, sort_events
+from cam.verify.machine_check import (
+    check_program,
+    machine_scene_for,
+    machine_summary,
+    render_worst_pose,
+    scene_summary,
+)
 from cam.verify.motion import program_moves
 from cam.verify.sources import load_design, load_stock
 from cam.verify.stock import Stock
@@ -289,6 +296,9 @@ def run_verify(
                    else None)
     work = load_stock(stock, resolution)
     sweep_tol = opts.sweep_tolerance or 0.1 * work.pitch
+    # one machine scene per tool (the holder and tool solids ride on the spindle)
+    scenes = {t.name: machine_scene_for(the_machine, t, work) for t in the_tools}
+    scene = scenes[the_tools[0].name] if the_tools else None
     initial = work.volume()
     distance: DesignDistance | None = design_distance
     spec_allowance: float | None = None
@@ -311,6 +321,7 @@ def run_verify(
     try:
         for index, (path, program) in enumerate(zip(programs, read, strict=True)):
             shape = shapes[index]
+            scene = scenes[the_tools[index].name]
             moves = program_moves(program, the_machine, kins, shape.reach, sweep_tol)
             before = work.volume()
             per_block = _sweep_program(work, moves, shape, len(owners), bar, path.name)
@@ -319,6 +330,10 @@ def run_verify(
             program_events = _motion_events(
                 path.name, program, moves, per_block, opts.contact_tolerance
             )
+            machine_check = None
+            if scene is not None:
+                machine_check = check_program(scene, kins, program, path.name)
+                program_events += machine_check.events
             events.extend(sort_events(program_events))
             duration = float(moves.duration.sum())
             cycle += duration
@@ -328,7 +343,13 @@ def run_verify(
                 "sub_moves": len(moves.tips),
                 "removed_volume_mm3": round(before - after, 3),
                 "cycle_time_s": round(duration, 3),
+                **({} if machine_check is None else machine_summary(machine_check)),
             })
+            if opts.render and scene is not None and machine_check is not None \
+                    and machine_check.pair[0]:
+                png = render_worst_pose(scene, kins, machine_check, path.name)
+                renders[f"machine_{index + 1}_{path.stem}.png"] = png
+                images.append((f"machine at the smallest clearance of {path.name}", png))
             if opts.render and (opts.render_each_program or index == len(programs) - 1):
                 png = _render_stock(work, f"after {path.name}")
                 renders[f"stock_{index + 1}_{path.stem}.png"] = png
@@ -388,6 +409,8 @@ def run_verify(
         "events": [e.to_json() for e in kept],
         "deviation": deviation_summary,
     }
+    if scene is not None:
+        result["machine_model"] = scene_summary(scene)
     _write_outputs(Path(out), work, result, kept, [p.name for p in programs], images, renders)
     return deviation
 

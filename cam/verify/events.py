@@ -16,6 +16,7 @@ EVENT_TYPES: tuple[str, ...] = (
     "stock_short",
     "rapid_in_stock",
     "holder_collision",
+    "machine_collision",
     "gouge",
     "overtravel",
     "excess",
@@ -40,8 +41,8 @@ class Event:
         Where, mm, workpiece frame (tool tip at the block end, or the deepest point).
     amount : float
         Size of the finding: mm of depth (gouge, excess, rapid cut, holder overlap,
-        stock inside the design) or
-        how far past the limit (overtravel, mm or deg).
+        stock inside the design), how far past the limit (overtravel, mm or deg) or
+        how far inside the pair's clearance (machine_collision, mm).
     message : str
         One human-readable sentence.
     details : dict

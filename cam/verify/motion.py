@@ -318,3 +318,14 @@ def program_moves(
             machine, joints_sub, sub_block, poser.machine_joints(blocks, np.zeros(n_blocks))
         ),
     )
+
+
+def block_poser(
+    program: MachineProgram, kins: Any, tool_length: float = 0.0, start_at_first: bool = True
+) -> _Poser:
+    """The controller's interpolation of ``program`` as ``program_moves`` sees it.
+
+    The result's ``machine_joints(block, frac)`` gives the joints ``(n, 5)`` at fractions
+    of blocks (``cam.verify.machine_check`` samples the machine's components with it).
+    """
+    return _Poser(kins, program, tool_length, start_at_first)

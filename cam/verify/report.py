@@ -142,6 +142,12 @@ def report_html(result: dict[str, Any], images: list[tuple[str, bytes]]) -> str:
         ("Cycle time", f"{result['cycle_time_s'] / 60.0:.2f} min"),
         ("Events", str(len(result["events"]))),
     ]
+    clearances = [
+        f"{p['name']}: {p['machine_clearance_mm']:.2f} mm "
+        f"({' - '.join(p['machine_clearance_pair'])}, line {p['machine_clearance_line']})"
+        for p in result["programs"] if p.get("machine_clearance_mm") is not None]
+    if clearances:
+        rows.append(("Smallest machine clearance", "; ".join(clearances)))
     if result.get("deviation"):
         dev = result["deviation"]
         if dev.get("samples"):

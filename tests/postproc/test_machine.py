@@ -53,7 +53,8 @@ def test_trunnion_fixture() -> None:
     machine = load_machine(TRUNNION)
     assert machine.conventional_directions and machine.tcp
     assert machine.pivot.z_offset == 50.0
-    assert machine.table == TableGeometry(radius=250.0, height=60.0, z_top=0.0)
+    # the part stands on a 100 mm riser (the machine model's fixture)
+    assert machine.table == TableGeometry(radius=250.0, height=60.0, z_top=-100.0)
     c = machine.axes["C"]
     assert c.continuous and c.minimum == -math.inf and c.maximum == math.inf
     assert c.velocity == pytest.approx(math.radians(180.0))
