@@ -18,6 +18,12 @@ path. ``tests/cam/test_verify_interval.py`` compares each with ``swept_interval`
   the move: rays grazing the side of the sweep, a thin band for a short move) is the
   general path needed. The slopes come from implicit differentiation of the active
   constraint; at a tie of two constraints the slope of either one is conservative.
+* ``normal_interval``: a ray normal to the tool axis (``zu = 0``: the X and Y rays of
+  a vertical tool). The height along the axis no longer depends on ``t``, so the slab
+  is an ``s`` range and the region in ``(t, s)`` is the conic cut by two lines
+  ``s = const``: its extremes are the conic's roots on those two lines and the points
+  of the conic on the tangency line ``dQ/ds = 0`` inside the range (three quadratics,
+  no case of the general path can be missed).
 * ``stadium_row``: the span of one grid row inside the projection of a capsule (a
   disc swept along a segment), so a move visits only the rays it can reach.
 """
@@ -238,6 +244,76 @@ def endpoint_interval(  # type: ignore[no-untyped-def]
         tmax = hi1
     else:
         return False, 0.0, 0.0
+    return True, tmin, tmax
+
+
+@njit(cache=True, inline="always")
+def _roots_at(s, qa, qb, qc, qd, qe, qf, tmin, tmax):  # type: ignore[no-untyped-def]
+    """Widen ``(tmin, tmax)`` by the roots of ``Q(t, s) = 0`` at a fixed ``s``."""
+    b = qb * s + qd
+    c = (qc * s + 2.0 * qe) * s + qf
+    disc = b * b - qa * c
+    if disc < 0.0:
+        return tmin, tmax
+    root = math.sqrt(disc)
+    q = -(b + root) if b >= 0.0 else -(b - root)
+    if q == 0.0:
+        return min(tmin, 0.0), max(tmax, 0.0)
+    r1 = q / qa
+    r2 = c / q
+    return min(tmin, r1, r2), max(tmax, r1, r2)
+
+
+@njit(cache=True)
+def normal_interval(  # type: ignore[no-untyped-def]
+    qa, qb, qc, qd, qe, qf, zw, zd, zlo, zhi, alpha
+):
+    """Swept interval of a ray normal to the tool axis (``zu = 0``, module doc).
+
+    Same coefficients as ``kernels.swept_interval`` (``qa = 1`` here); ``alpha`` is the
+    primitive's quadratic term. Returns ``(ok, tmin, tmax)`` (``tmin > tmax``: the ray
+    misses); ``ok`` False for a cone whose section degenerates (use the general path).
+    """
+    # the slab zlo <= zw - zd s <= zhi as an s range within [0, 1]
+    if abs(zd) > _TINY:
+        sa = (zw - zhi) / zd
+        sb = (zw - zlo) / zd
+        s0 = max(0.0, min(sa, sb))
+        s1 = min(1.0, max(sa, sb))
+    elif zlo <= zw <= zhi:
+        s0, s1 = 0.0, 1.0
+    else:
+        return True, math.inf, -math.inf
+    if s1 < s0:
+        return True, math.inf, -math.inf
+    tmin, tmax = _roots_at(s0, qa, qb, qc, qd, qe, qf, math.inf, -math.inf)
+    tmin, tmax = _roots_at(s1, qa, qb, qc, qd, qe, qf, tmin, tmax)
+    # the tangency line qb t + qc s + qe = 0 on the conic: multiplied by qc,
+    # A t^2 + 2 B t + C = 0
+    if qc <= _TINY:
+        # no move across the axis: Q is linear in s, the extremes lie on the lines
+        return alpha >= 0.0 and abs(qb) <= _TINY, tmin, tmax
+    a = qa * qc - qb * qb
+    b = qd * qc - qb * qe
+    c = qf * qc - qe * qe
+    if a == 0.0 and alpha >= 0.0:
+        # a sphere or cylinder moved along the ray (within the plane normal to the
+        # axis): the section is a strip along the move, its extremes on the two lines
+        return True, tmin, tmax
+    if abs(a) <= 1e-9 * qa * qc:
+        return False, tmin, tmax  # nearly degenerate: round-off, use the general path
+    disc = b * b - a * c
+    if disc < 0.0:
+        return True, tmin, tmax
+    root = math.sqrt(disc)
+    q = -(b + root) if b >= 0.0 else -(b - root)
+    if q == 0.0:
+        return False, tmin, tmax
+    for t in (q / a, c / q):
+        s = -(qb * t + qe) / qc
+        if s0 <= s <= s1:
+            tmin = min(tmin, t)
+            tmax = max(tmax, t)
     return True, tmin, tmax
 
 

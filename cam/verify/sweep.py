@@ -34,6 +34,7 @@ from numba import njit
 from cam.verify.interval import (
     capsule_row,
     endpoint_interval,
+    normal_interval,
     parallel_cylinder_interval,
     stadium_row,
 )
@@ -158,6 +159,7 @@ def sweep_grid(  # type: ignore[no-untyped-def]
             qb = -ud - alpha * zu * zd
             qc = dd + alpha * zd * zd
             parallel = alpha == 0.0 and uu < _PAR
+            normal = abs(zu) <= 1e-14
             for ii in range(i0, i1 + 1, step):
                 ci = origin[0] + (ii + 0.5) * h
                 ylo, yhi = stadium_row(ci, p0x, p0y, p1x, p1y, rho)
@@ -224,7 +226,10 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                             ta, tb = parallel_cylinder_interval(qc, qe, qf, zw, zu, zd,
                                                                 zlo, zhi)
                             done = True
-                        elif qa > 1e-9:
+                        elif normal:
+                            done, ta, tb = normal_interval(qa, qb, qc, qd, qe, qf, zw, zd,
+                                                           zlo, zhi, alpha)
+                        if not done and qa > 1e-9:
                             done, ta, tb = endpoint_interval(qa, qb, qc, qd, qe, qf, zw,
                                                              zu, zd, zlo, zhi)
                         if done:

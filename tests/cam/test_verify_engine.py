@@ -22,6 +22,7 @@ from cam.verify.interval import (
     capsule_interval,
     capsule_row,
     endpoint_interval,
+    normal_interval,
     parallel_cylinder_interval,
     stadium_row,
 )
@@ -135,6 +136,36 @@ def test_ray_along_a_cylinder_axis(seed: int, short: bool, k: int, sign: float) 
     assert abs(qa) < 1e-12 and abs(qb) < 1e-12 and abs(qd) < 1e-12
     got = parallel_cylinder_interval(qc, qe, qf, zw, zu, zd, prim[3], prim[4])
     _same(got, _reference(prim, (qa, qb, qc, qd, qe, qf, zw, zu, zd)))
+
+
+@settings(max_examples=500, deadline=None)
+@given(seed=st.integers(0, 10**6), short=st.booleans(),
+       kind=st.sampled_from(sorted(PRIMITIVES)),
+       move_kind=st.sampled_from(["any", "along_ray", "along_axis", "normal_plane"]))
+def test_ray_normal_to_the_axis(seed: int, short: bool, kind: str, move_kind: str) -> None:
+    prim = PRIMITIVES[kind]
+    rng = np.random.default_rng(seed)
+    k = int(rng.integers(3))
+    axis = rng.normal(size=3)
+    if rng.random() < 0.5:
+        axis[(k + 1 + int(rng.integers(2))) % 3] = 0.0  # a world axis or a plane of two
+    axis[k] = 0.0
+    axis /= np.linalg.norm(axis)
+    tip = rng.uniform(-3.0, 3.0, 3)
+    move = {"any": rng.normal(size=3), "along_ray": np.eye(3)[k], "along_axis": axis,
+            "normal_plane": np.eye(3)[k] + rng.normal() * np.cross(axis, np.eye(3)[k])}[
+                move_kind]
+    move = move * (rng.uniform(1e-4, 0.05) if short else rng.uniform(0.0, 6.0)) / np.linalg.norm(
+        move)
+    origin = tip + rng.uniform(-4.0, 4.0, 3) + rng.uniform(0.0, 8.0) * axis
+    origin[k] = 0.0
+    coeffs = _coefficients(prim, tip, move, axis, origin, k)
+    qa, qb, qc, qd, qe, qf, zw, zu, zd = coeffs
+    assert zu == 0.0
+    ok, ta, tb = normal_interval(qa, qb, qc, qd, qe, qf, zw, zd, prim[3], prim[4], prim[0])
+    assert ok or prim[0] < 0.0  # only a cone may need the general path
+    if ok:
+        _same((ta, tb), _reference(prim, coeffs))
 
 
 @settings(max_examples=300, deadline=None)
