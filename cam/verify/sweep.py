@@ -214,6 +214,18 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                                 continue
                         elif zw - max(0.0, zd) > zhi or zw - min(0.0, zd) < zlo:
                             continue
+                        else:
+                            sa = ta
+                            sb = tb
+                        # the ray's intervals against that bound (rays with material
+                        # on both sides of a cut channel pass the range test)
+                        base = start[r]
+                        n = count[r]
+                        i = 0
+                        while i < n and hi[base + i] <= sa:
+                            i += 1
+                        if i == n or lo[base + i] >= sb:
+                            continue
                         n_c2 += 1
                         wu = w2 - zw * zu
                         wd = w0 * dg[0] + w1 * dg[1] + w2 * dg[2] - zw * zd
