@@ -317,6 +317,67 @@ def normal_interval(  # type: ignore[no-untyped-def]
     return True, tmin, tmax
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def _static_sel(s, qa, inv_qa, qb, qc, qd, qe, qf, zw, inv_zu, zd, zlo, zhi):  # type: ignore[no-untyped-def]
+    """``_static`` for ``inv_zu != 0`` written with selects instead of branches (the
+    same operations, so the same numbers), for a loop that vectorises."""
+    b = qb * s + qd
+    c = (qc * s + 2.0 * qe) * s + qf
+    disc = b * b - qa * c
+    ok = disc > 0.0
+    root = math.sqrt(disc if ok else 1.0)
+    q = -(b + root) if b >= 0.0 else -(b - root)
+    r1 = q * inv_qa
+    r2 = c / q
+    cl = min(r1, r2)
+    ch = max(r1, r2)
+    g = qc * s + qe
+    inv_root = 1.0 / root
+    dcl = (qb * cl + g) * inv_root
+    dch = -(qb * ch + g) * inv_root
+    za = (zlo - zw + zd * s) * inv_zu
+    zb = (zhi - zw + zd * s) * inv_zu
+    sl = min(za, zb)
+    sh = max(za, zb)
+    dsl = zd * inv_zu
+    lo = cl if cl >= sl else sl
+    dlo = dcl if cl >= sl else dsl
+    hi = ch if ch <= sh else sh
+    dhi = dch if ch <= sh else dsl
+    return ok & (hi >= lo), lo, hi, dlo, dhi
+
+
+@njit(cache=True, error_model="numpy")
+def endpoint_row(  # type: ignore[no-untyped-def]
+    out_a, out_b, out_ok, count, cj0, step, h, w0, tip1, w2, ag0, ag1, ag2, dg0, dg1, dg2,
+    zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi,
+):
+    """``endpoint_interval`` for ``count`` rays of one grid row (ray ``m`` at
+    ``cj0 + m step h``), into ``out_a``, ``out_b`` and ``out_ok``; branch-free so that
+    the loop vectorises. Needs ``|zu| > 1e-14`` and ``qa > 0``; the ray offsets from
+    the tip (``w0``, ``cj - tip1``, ``w2``) and the per-move terms as in the sweep."""
+    inv_qa = 1.0 / qa
+    inv_zu = 1.0 / zu
+    for m in range(count):
+        cj = cj0 + m * step * h
+        w1 = cj - tip1
+        zw = ag0 * w0 + ag1 * w1 + ag2 * w2
+        wu = w2 - zw * zu
+        wd = w0 * dg0 + w1 * dg1 + w2 * dg2 - zw * zd
+        ww = w0 * w0 + w1 * w1 + w2 * w2 - zw * zw
+        qd = wu + alpha * zw * zu + 0.5 * beta * zu
+        qe = -wd - alpha * zw * zd - 0.5 * beta * zd
+        qf = ww + alpha * zw * zw + beta * zw + gamma
+        ok0, lo0, hi0, dlo0, dhi0 = _static_sel(0.0, qa, inv_qa, qb, qc, qd, qe, qf, zw,
+                                                inv_zu, zd, zlo, zhi)
+        ok1, lo1, hi1, dlo1, dhi1 = _static_sel(1.0, qa, inv_qa, qb, qc, qd, qe, qf, zw,
+                                                inv_zu, zd, zlo, zhi)
+        out_a[m] = lo0 if dlo0 >= 0.0 else lo1
+        out_b[m] = hi0 if dhi0 <= 0.0 else hi1
+        out_ok[m] = (ok0 & ok1 & ((dlo0 >= 0.0) | (dlo1 <= 0.0))
+                     & ((dhi0 <= 0.0) | (dhi1 >= 0.0)))
+
+
 @njit(cache=True)
 def stadium_row(x, p0x, p0y, p1x, p1y, rho):  # type: ignore[no-untyped-def]
     """Span ``(ylo, yhi)`` of the line ``X = x`` within ``rho`` of the segment p0-p1

@@ -34,6 +34,7 @@ from numba import njit
 from cam.verify.interval import (
     capsule_row,
     endpoint_interval,
+    endpoint_row,
     normal_interval,
     parallel_cylinder_interval,
     stadium_row,
@@ -91,7 +92,7 @@ def material_range(lo, hi, start, count):  # type: ignore[no-untyped-def]
     return mat_lo, mat_hi
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def sweep_grid(  # type: ignore[no-untyped-def]
     lo, hi, lom, him, start, count, cap, used,
     k, origin, shape, h,
@@ -126,6 +127,9 @@ def sweep_grid(  # type: ignore[no-untyped-def]
     ag = np.empty(3)
     row_a = np.empty(max(shape[0], shape[1]) + 1)
     row_b = np.empty(max(shape[0], shape[1]) + 1)
+    row_c = np.empty(max(shape[0], shape[1]) + 1)
+    row_d = np.empty(max(shape[0], shape[1]) + 1)
+    row_ok = np.zeros(max(shape[0], shape[1]) + 1, np.bool_)
     n_c0 = n_c1 = n_c2 = n_c3 = n_c4 = n_c5 = 0
     for mv in range(first, tips.shape[0]):
         for c, w in ((0, ia), (1, ja), (2, k)):
@@ -160,6 +164,8 @@ def sweep_grid(  # type: ignore[no-untyped-def]
             qc = dd + alpha * zd * zd
             parallel = alpha == 0.0 and uu < _PAR
             normal = abs(zu) <= 1e-14
+            # end-pose intervals of a whole row at once (vectorised)
+            rowwise = not exact and not parallel and not normal and qa > 1e-9
             for ii in range(i0, i1 + 1, step):
                 ci = origin[0] + (ii + 0.5) * h
                 ylo, yhi = stadium_row(ci, p0x, p0y, p1x, p1y, rho)
@@ -187,6 +193,10 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                             ux, uy, uz, length, rho2)
                 n_c0 += nspan
                 r0 = ii * nj + j0
+                if rowwise:
+                    endpoint_row(row_c, row_d, row_ok, nspan, cj0, step, h, w0, tipg[1],
+                                 -tipg[2], ag[0], ag[1], ag[2], dg[0], dg[1], dg[2], zu, zd,
+                                 alpha, beta, gamma, qa, qb, qc, zlo, zhi)
                 for m in range(nspan):
                     ta = row_a[m]
                     tb = row_b[m]
@@ -195,11 +205,15 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                     mhi = mat_hi[r]
                     if not (tb > ta and ta < mhi and tb > mlo):
                         continue
-                    tj = (j0 + m * step) // tile
-                    if tile_lo[ti, tj] >= kmax or tile_hi[ti, tj] <= kmin:
-                        continue
                     n_c1 += 1
-                    if not exact:
+                    if rowwise and row_ok[m]:
+                        ta = row_c[m]
+                        tb = row_d[m]
+                        n_c2 += 1
+                        n_c3 += 1
+                        if not (tb > ta and ta < mhi and tb > mlo):
+                            continue
+                    elif not exact:
                         cj = cj0 + m * step * h
                         w1 = cj - tipg[1]
                         w2 = -tipg[2]
@@ -241,7 +255,7 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                         elif normal:
                             done, ta, tb = normal_interval(qa, qb, qc, qd, qe, qf, zw, zd,
                                                            zlo, zhi, alpha)
-                        if not done and qa > 1e-9:
+                        if not done and qa > 1e-9 and not rowwise:
                             done, ta, tb = endpoint_interval(qa, qb, qc, qd, qe, qf, zw,
                                                              zu, zd, zlo, zhi)
                         if done:
