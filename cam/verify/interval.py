@@ -247,24 +247,69 @@ def endpoint_interval(  # type: ignore[no-untyped-def]
     return True, tmin, tmax
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _roots_at(s, qa, qb, qc, qd, qe, qf, tmin, tmax):  # type: ignore[no-untyped-def]
-    """Widen ``(tmin, tmax)`` by the roots of ``Q(t, s) = 0`` at a fixed ``s``."""
+    """Widen ``(tmin, tmax)`` by the roots of ``Q(t, s) = 0`` at a fixed ``s``
+    (selects, no branches)."""
     b = qb * s + qd
     c = (qc * s + 2.0 * qe) * s + qf
     disc = b * b - qa * c
-    if disc < 0.0:
-        return tmin, tmax
-    root = math.sqrt(disc)
+    has = disc >= 0.0
+    root = math.sqrt(disc if has else 0.0)
     q = -(b + root) if b >= 0.0 else -(b - root)
-    if q == 0.0:
-        return min(tmin, 0.0), max(tmax, 0.0)
+    zero = q == 0.0
     r1 = q / qa
     r2 = c / q
-    return min(tmin, r1, r2), max(tmax, r1, r2)
+    lo = 0.0 if zero else min(r1, r2)
+    hi = 0.0 if zero else max(r1, r2)
+    return (min(tmin, lo) if has else tmin), (max(tmax, hi) if has else tmax)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always", error_model="numpy")
+def _normal_sel(qa, qb, qc, qd, qe, qf, zw, zd, zlo, zhi, alpha):  # type: ignore[no-untyped-def]
+    """``normal_interval`` with selects instead of branches (vectorises in a row)."""
+    # the slab zlo <= zw - zd s <= zhi as an s range within [0, 1]
+    moving = abs(zd) > _TINY
+    sa = (zw - zhi) / zd
+    sb = (zw - zlo) / zd
+    inside = (zlo <= zw) & (zw <= zhi)
+    s0 = max(0.0, min(sa, sb)) if moving else 0.0
+    s1 = min(1.0, max(sa, sb)) if moving else (1.0 if inside else -1.0)
+    empty = s1 < s0
+    tmin, tmax = _roots_at(s0, qa, qb, qc, qd, qe, qf, math.inf, -math.inf)
+    tmin, tmax = _roots_at(s1, qa, qb, qc, qd, qe, qf, tmin, tmax)
+    # the tangency line qb t + qc s + qe = 0 on the conic: multiplied by qc,
+    # A t^2 + 2 B t + C = 0. No move across the axis (qc ~ 0): Q is linear in s, the
+    # extremes lie on the lines. A = 0 for a sphere or cylinder moved along the ray
+    # (within the plane normal to the axis): the section is a strip along the move,
+    # its extremes on the lines too. A nearly 0 otherwise: round-off, general path.
+    a = qa * qc - qb * qb
+    b = qd * qc - qb * qe
+    c = qf * qc - qe * qe
+    flat = qc <= _TINY
+    strip = (a == 0.0) & (alpha >= 0.0)
+    near = abs(a) <= 1e-9 * qa * qc
+    ok = ((alpha >= 0.0) & (abs(qb) <= _TINY)) if flat else (strip | (not near))
+    tangent = (not flat) & (not near)
+    disc = b * b - a * c
+    has = tangent & (disc >= 0.0)
+    root = math.sqrt(disc if has else 0.0)
+    q = -(b + root) if b >= 0.0 else -(b - root)
+    ok = ok & (not (has & (q == 0.0)))
+    t1 = q / a
+    t2 = c / q
+    s1_ = -(qb * t1 + qe) / qc
+    s2_ = -(qb * t2 + qe) / qc
+    in1 = has & (s0 <= s1_) & (s1_ <= s1)
+    in2 = has & (s0 <= s2_) & (s2_ <= s1)
+    tmin = min(tmin, t1) if in1 else tmin
+    tmax = max(tmax, t1) if in1 else tmax
+    tmin = min(tmin, t2) if in2 else tmin
+    tmax = max(tmax, t2) if in2 else tmax
+    return (ok | empty), (math.inf if empty else tmin), (-math.inf if empty else tmax)
+
+
+@njit(cache=True, error_model="numpy")
 def normal_interval(  # type: ignore[no-untyped-def]
     qa, qb, qc, qd, qe, qf, zw, zd, zlo, zhi, alpha
 ):
@@ -272,49 +317,33 @@ def normal_interval(  # type: ignore[no-untyped-def]
 
     Same coefficients as ``kernels.swept_interval`` (``qa = 1`` here); ``alpha`` is the
     primitive's quadratic term. Returns ``(ok, tmin, tmax)`` (``tmin > tmax``: the ray
-    misses); ``ok`` False for a cone whose section degenerates (use the general path).
+    misses); ``ok`` False for a cone whose section degenerates, or a nearly degenerate
+    section (use the general path).
     """
-    # the slab zlo <= zw - zd s <= zhi as an s range within [0, 1]
-    if abs(zd) > _TINY:
-        sa = (zw - zhi) / zd
-        sb = (zw - zlo) / zd
-        s0 = max(0.0, min(sa, sb))
-        s1 = min(1.0, max(sa, sb))
-    elif zlo <= zw <= zhi:
-        s0, s1 = 0.0, 1.0
-    else:
-        return True, math.inf, -math.inf
-    if s1 < s0:
-        return True, math.inf, -math.inf
-    tmin, tmax = _roots_at(s0, qa, qb, qc, qd, qe, qf, math.inf, -math.inf)
-    tmin, tmax = _roots_at(s1, qa, qb, qc, qd, qe, qf, tmin, tmax)
-    # the tangency line qb t + qc s + qe = 0 on the conic: multiplied by qc,
-    # A t^2 + 2 B t + C = 0
-    if qc <= _TINY:
-        # no move across the axis: Q is linear in s, the extremes lie on the lines
-        return alpha >= 0.0 and abs(qb) <= _TINY, tmin, tmax
-    a = qa * qc - qb * qb
-    b = qd * qc - qb * qe
-    c = qf * qc - qe * qe
-    if a == 0.0 and alpha >= 0.0:
-        # a sphere or cylinder moved along the ray (within the plane normal to the
-        # axis): the section is a strip along the move, its extremes on the two lines
-        return True, tmin, tmax
-    if abs(a) <= 1e-9 * qa * qc:
-        return False, tmin, tmax  # nearly degenerate: round-off, use the general path
-    disc = b * b - a * c
-    if disc < 0.0:
-        return True, tmin, tmax
-    root = math.sqrt(disc)
-    q = -(b + root) if b >= 0.0 else -(b - root)
-    if q == 0.0:
-        return False, tmin, tmax
-    for t in (q / a, c / q):
-        s = -(qb * t + qe) / qc
-        if s0 <= s <= s1:
-            tmin = min(tmin, t)
-            tmax = max(tmax, t)
-    return True, tmin, tmax
+    return _normal_sel(qa, qb, qc, qd, qe, qf, zw, zd, zlo, zhi, alpha)
+
+
+@njit(cache=True, error_model="numpy")
+def normal_row(  # type: ignore[no-untyped-def]
+    out_a, out_b, out_ok, count, cj0, step, h, w0, tip1, w2, ag0, ag1, ag2, dg0, dg1, dg2,
+    zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi,
+):
+    """``normal_interval`` for ``count`` rays of one grid row, arguments as
+    ``endpoint_row``; branch-free so that the loop vectorises."""
+    for m in range(count):
+        cj = cj0 + m * step * h
+        w1 = cj - tip1
+        zw = ag0 * w0 + ag1 * w1 + ag2 * w2
+        wu = w2 - zw * zu
+        wd = w0 * dg0 + w1 * dg1 + w2 * dg2 - zw * zd
+        ww = w0 * w0 + w1 * w1 + w2 * w2 - zw * zw
+        qd = wu + alpha * zw * zu + 0.5 * beta * zu
+        qe = -wd - alpha * zw * zd - 0.5 * beta * zd
+        qf = ww + alpha * zw * zw + beta * zw + gamma
+        ok, ta, tb = _normal_sel(qa, qb, qc, qd, qe, qf, zw, zd, zlo, zhi, alpha)
+        out_a[m] = ta
+        out_b[m] = tb
+        out_ok[m] = ok
 
 
 @njit(cache=True, inline="always", error_model="numpy")

@@ -36,6 +36,7 @@ from cam.verify.interval import (
     endpoint_interval,
     endpoint_row,
     normal_interval,
+    normal_row,
     parallel_cylinder_interval,
     stadium_row,
 )
@@ -165,7 +166,7 @@ def sweep_grid(  # type: ignore[no-untyped-def]
             parallel = alpha == 0.0 and uu < _PAR
             normal = abs(zu) <= 1e-14
             # end-pose intervals of a whole row at once (vectorised)
-            rowwise = not exact and not parallel and not normal and qa > 1e-9
+            rowwise = not exact and not parallel and (normal or qa > 1e-9)
             for ii in range(i0, i1 + 1, step):
                 ci = origin[0] + (ii + 0.5) * h
                 ylo, yhi = stadium_row(ci, p0x, p0y, p1x, p1y, rho)
@@ -193,7 +194,11 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                             ux, uy, uz, length, rho2)
                 n_c0 += nspan
                 r0 = ii * nj + j0
-                if rowwise:
+                if rowwise and normal:
+                    normal_row(row_c, row_d, row_ok, nspan, cj0, step, h, w0, tipg[1],
+                               -tipg[2], ag[0], ag[1], ag[2], dg[0], dg[1], dg[2], zu, zd,
+                               alpha, beta, gamma, qa, qb, qc, zlo, zhi)
+                elif rowwise:
                     endpoint_row(row_c, row_d, row_ok, nspan, cj0, step, h, w0, tipg[1],
                                  -tipg[2], ag[0], ag[1], ag[2], dg[0], dg[1], dg[2], zu, zd,
                                  alpha, beta, gamma, qa, qb, qc, zlo, zhi)
@@ -252,7 +257,7 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                             ta, tb = parallel_cylinder_interval(qc, qe, qf, zw, zu, zd,
                                                                 zlo, zhi)
                             done = True
-                        elif normal:
+                        elif normal and not rowwise:
                             done, ta, tb = normal_interval(qa, qb, qc, qd, qe, qf, zw, zd,
                                                            zlo, zhi, alpha)
                         if not done and qa > 1e-9 and not rowwise:
