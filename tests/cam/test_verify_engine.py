@@ -326,3 +326,27 @@ def test_longest_cut_is_the_cutters_cut_along_one_ray() -> None:
     exact = 2.0 / 3.0 * math.pi * 8.0
     assert stats[0, 0] == pytest.approx(before - stock.volume(), rel=1e-12)
     assert stats[0, 0] == pytest.approx(exact, rel=5e-3)
+
+
+def test_a_pool_overflow_resumes_where_it_stopped() -> None:
+    # rows of 32 holes split the X rays through them 32 times: the pool overflows in
+    # the middle of a band of rows and grows; the result is the reference sweep's
+    shape = tool_shape(Tool(name="drill", number=1, shape="flat", diameter=0.4,
+                            corner_radius=0.0, flute_length=6.0, shank_diameter=0.4,
+                            stickout=9.0))
+    # (centres 0.05 mm off the rays: no ray grazes a hole, where round-off decides)
+    xs, ys = np.meshgrid(np.linspace(-9.25, 9.35, 32), [-6.05, -3.05, 0.05, 3.05, 6.05])
+    tips = np.column_stack([xs.ravel(), ys.ravel(), np.full(xs.size, 1.0)])
+    moves = np.tile([0.0, 0.0, -5.0], (xs.size, 1))
+    axes = np.tile([0.0, 0.0, 1.0], (xs.size, 1))
+    fast = Stock.box([-10.0, -8.0, -8.0], [10.0, 8.0, 0.0], 0.2)
+    slow = Stock.box([-10.0, -8.0, -8.0], [10.0, 8.0, 0.0], 0.2)
+    size = len(fast.grids[0].lo)
+    fast.sweep(tips, moves, axes, np.arange(len(tips), dtype=np.int32), shape)
+    assert len(fast.grids[0].lo) > size  # the X grid's pool grew
+    _reference_sweep(slow, tips, moves, axes, shape)
+    for got, want in zip(_intervals(fast), _intervals(slow), strict=True):
+        assert np.array_equal(got[0], want[0])
+        np.testing.assert_allclose(got[1], want[1], atol=TOL)
+        np.testing.assert_allclose(got[2], want[2], atol=TOL)
+        assert np.array_equal(got[3], want[3]) and np.array_equal(got[4], want[4])
