@@ -211,7 +211,7 @@ def _static(s, qa, inv_qa, qb, qc, qd, qe, qf, zw, inv_zu, zd, zlo, zhi):  # typ
     return True, lo, hi, dlo, dhi
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def endpoint_interval(  # type: ignore[no-untyped-def]
     qa, qb, qc, qd, qe, qf, zw, zu, zd, zlo, zhi
 ):
@@ -407,7 +407,7 @@ def endpoint_row(  # type: ignore[no-untyped-def]
                      & ((dhi0 <= 0.0) | (dhi1 >= 0.0)))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always", error_model="numpy")
 def stadium_row(x, p0x, p0y, p1x, p1y, rho):  # type: ignore[no-untyped-def]
     """Span ``(ylo, yhi)`` of the line ``X = x`` within ``rho`` of the segment p0-p1
     (2-D); ``ylo > yhi`` when it misses. The stadium is convex, so the span is the

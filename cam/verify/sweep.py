@@ -190,6 +190,9 @@ def sweep_grid(  # type: ignore[no-untyped-def]
             if reach_hi[mv] < b_lo or reach_lo[mv] > b_hi:
                 continue
             _move_frame(tips, moves, axes, mv, ia, ja, k, tipg, dg, ag)
+            removed = 0.0  # this move's sums in this band (into stats at its end)
+            overlap = 0.0
+            overlap_max = 0.0
             zu = ag[2]
             zd = ag[0] * dg[0] + ag[1] * dg[1] + ag[2] * dg[2]
             uu = 1.0 - zu * zu
@@ -332,8 +335,8 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                                 if x1 > x0:
                                     got += x1 - x0
                             n_c5 += 1 if got > 0.0 else 0
-                            stats[mv, 2] += got
-                            stats[mv, 3] = max(stats[mv, 3], got)
+                            overlap += got
+                            overlap_max = max(overlap_max, got)
                             continue
                         # the common subtractions written out here: a helper taking the
                         # pool arrays costs two atomic reference-count updates per array
@@ -378,6 +381,9 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                                             ta, tb, mid)
                             if got < 0.0:
                                 _add_counts(counters, n_c0, n_c1, n_c2, n_c3, n_c4, n_c5)
+                                stats[mv, 0] += removed
+                                stats[mv, 2] += overlap
+                                stats[mv, 3] = max(stats[mv, 3], overlap_max)
                                 return band * n_moves + mv
                             base = start[r]
                         n = count[r]
@@ -387,11 +393,14 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                         gap_hi[r] = lo[base + 1] if n > 1 else -np.inf
                         if got > 0.0:
                             n_c5 += 1
-                            stats[mv, 0] += got
+                            removed += got
                             if acc[r] == 0.0:
                                 touched[0] += 1
                                 touched[touched[0]] = r
                             acc[r] += got
+            stats[mv, 0] += removed
+            stats[mv, 2] += overlap
+            stats[mv, 3] = max(stats[mv, 3], overlap_max)
             longest = stats[mv, 1]
             for m in range(1, touched[0] + 1):
                 r = touched[m]
