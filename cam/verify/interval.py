@@ -325,12 +325,12 @@ def normal_interval(  # type: ignore[no-untyped-def]
 
 @njit(cache=True, error_model="numpy")
 def normal_row(  # type: ignore[no-untyped-def]
-    out_a, out_b, out_ok, count, cj0, step, h, w0, tip1, w2, ag0, ag1, ag2, dg0, dg1, dg2,
+    out_a, out_b, out_ok, m0, m1, cj0, step, h, w0, tip1, w2, ag0, ag1, ag2, dg0, dg1, dg2,
     zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi,
 ):
-    """``normal_interval`` for ``count`` rays of one grid row, arguments as
+    """``normal_interval`` for rays ``m0 <= m < m1`` of one grid row, arguments as
     ``endpoint_row``; branch-free so that the loop vectorises."""
-    for m in range(count):
+    for m in range(m0, m1):
         cj = cj0 + m * step * h
         w1 = cj - tip1
         zw = ag0 * w0 + ag1 * w1 + ag2 * w2
@@ -378,16 +378,16 @@ def _static_sel(s, qa, inv_qa, qb, qc, qd, qe, qf, zw, inv_zu, zd, zlo, zhi):  #
 
 @njit(cache=True, error_model="numpy")
 def endpoint_row(  # type: ignore[no-untyped-def]
-    out_a, out_b, out_ok, count, cj0, step, h, w0, tip1, w2, ag0, ag1, ag2, dg0, dg1, dg2,
+    out_a, out_b, out_ok, m0, m1, cj0, step, h, w0, tip1, w2, ag0, ag1, ag2, dg0, dg1, dg2,
     zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi,
 ):
-    """``endpoint_interval`` for ``count`` rays of one grid row (ray ``m`` at
+    """``endpoint_interval`` for rays ``m0 <= m < m1`` of one grid row (ray ``m`` at
     ``cj0 + m step h``), into ``out_a``, ``out_b`` and ``out_ok``; branch-free so that
     the loop vectorises. Needs ``|zu| > 1e-14`` and ``qa > 0``; the ray offsets from
     the tip (``w0``, ``cj - tip1``, ``w2``) and the per-move terms as in the sweep."""
     inv_qa = 1.0 / qa
     inv_zu = 1.0 / zu
-    for m in range(count):
+    for m in range(m0, m1):
         cj = cj0 + m * step * h
         w1 = cj - tip1
         zw = ag0 * w0 + ag1 * w1 + ag2 * w2

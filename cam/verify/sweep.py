@@ -249,15 +249,30 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                                 ux, uy, uz, length, rho2)
                     n_c0 += nspan
                     r0 = ii * nj + j0
+                    # the rays whose capsule interval meets their material range,
+                    # before the exact intervals of a row are computed
+                    m_first = 0
+                    m_last = nspan - 1
+                    if rowwise:
+                        m_first = nspan
+                        m_last = -1
+                        for m in range(nspan):
+                            r = r0 + m * step
+                            if (row_b[m] > row_a[m] and row_a[m] < mat_hi[r]
+                                    and row_b[m] > mat_lo[r]):
+                                m_first = min(m_first, m)
+                                m_last = m
+                        if m_last < 0:
+                            continue
                     if rowwise and normal:
-                        normal_row(row_c, row_d, row_ok, nspan, cj0, step, h, w0, tipg[1],
-                                   -tipg[2], ag[0], ag[1], ag[2], dg[0], dg[1], dg[2], zu, zd,
-                                   alpha, beta, gamma, qa, qb, qc, zlo, zhi)
+                        normal_row(row_c, row_d, row_ok, m_first, m_last + 1, cj0, step, h,
+                                   w0, tipg[1], -tipg[2], ag[0], ag[1], ag[2], dg[0], dg[1],
+                                   dg[2], zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi)
                     elif rowwise:
-                        endpoint_row(row_c, row_d, row_ok, nspan, cj0, step, h, w0, tipg[1],
-                                     -tipg[2], ag[0], ag[1], ag[2], dg[0], dg[1], dg[2], zu, zd,
-                                     alpha, beta, gamma, qa, qb, qc, zlo, zhi)
-                    for m in range(nspan):
+                        endpoint_row(row_c, row_d, row_ok, m_first, m_last + 1, cj0, step,
+                                     h, w0, tipg[1], -tipg[2], ag[0], ag[1], ag[2], dg[0],
+                                     dg[1], dg[2], zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi)
+                    for m in range(m_first, m_last + 1):
                         known = rowwise and row_ok[m]
                         ta = row_c[m] if known else row_a[m]
                         tb = row_d[m] if known else row_b[m]

@@ -22,7 +22,9 @@ from cam.verify.interval import (
     capsule_interval,
     capsule_row,
     endpoint_interval,
+    endpoint_row,
     normal_interval,
+    normal_row,
     parallel_cylinder_interval,
     stadium_row,
 )
@@ -118,6 +120,29 @@ def test_end_pose_interval_matches_the_general_path(seed: int, short: bool, kind
     ok, ta, tb = endpoint_interval(*coeffs, prim[3], prim[4])
     if ok:
         _same((ta, tb), _reference(prim, coeffs))
+    if abs(coeffs[7]) > 1e-14:  # the vectorised row form (zu != 0) says the same
+        ok, ta, tb = _row_form(endpoint_row, prim, tip, move, axis, origin, int(kk[0]))
+        if ok:
+            _same((ta, tb), _reference(prim, coeffs))
+
+
+def _row_form(row_kernel, prim: np.ndarray, tip: np.ndarray, move: np.ndarray,  # type: ignore[no-untyped-def]
+              axis: np.ndarray, origin: np.ndarray, k: int) -> tuple[bool, float, float]:
+    """The row kernel's interval of one ray (the third ray of a row of five)."""
+    ia, ja = (k + 1) % 3, (k + 2) % 3
+    g = [ia, ja, k]
+    ag, dg = axis[g], move[g]
+    zu, zd = axis[k], float(axis @ move)
+    uu, ud = 1.0 - zu * zu, dg[2] - zu * zd
+    dd = float(dg @ dg) - zd * zd
+    alpha = prim[0]
+    out_a, out_b, out_ok = np.zeros(5), np.zeros(5), np.zeros(5, np.bool_)
+    h = 0.1
+    row_kernel(out_a, out_b, out_ok, 1, 4, origin[ja] - 2 * h, 1, h, origin[ia] - tip[ia],
+               tip[ja], -tip[k], ag[0], ag[1], ag[2], dg[0], dg[1], dg[2], zu, zd, prim[0],
+               prim[1], prim[2], uu + alpha * zu * zu, -ud - alpha * zu * zd,
+               dd + alpha * zd * zd, prim[3], prim[4])
+    return bool(out_ok[2]), float(out_a[2]), float(out_b[2])
 
 
 @settings(max_examples=300, deadline=None)
@@ -166,6 +191,10 @@ def test_ray_normal_to_the_axis(seed: int, short: bool, kind: str, move_kind: st
     assert ok or prim[0] < 0.0  # only a cone may need the general path
     if ok:
         _same((ta, tb), _reference(prim, coeffs))
+    row_ok, row_a, row_b = _row_form(normal_row, prim, tip, move, axis, origin, k)
+    assert row_ok == ok
+    if row_ok:
+        _same((row_a, row_b), (ta, tb))
 
 
 @settings(max_examples=300, deadline=None)
