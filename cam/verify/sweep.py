@@ -12,11 +12,22 @@ hold material there, in three filters of rising cost:
    the two. Per grid row, ``interval.stadium_row`` gives the span of rays inside the
    capsule's projection; blocks of ``tile`` x ``tile`` rays whose material range
    misses the sweep's range along the rays are skipped;
-2. **material**: the capsule's interval on the ray (exact for a sphere), cut to the
-   swept slab ``zlo <= z <= zhi``, against the ray's material range: no overlap, no
-   more work (the early-out for rays whose material is already gone there);
-3. **exact interval**: the closed forms of ``cam.verify.interval`` where they apply,
-   else ``kernels.swept_interval`` (the general path and accuracy reference).
+2. **material**: the capsule's interval on the ray (exact for a sphere) against the
+   ray's material range and its first gap (both kept per ray, up to date): no
+   overlap, no more work (the early-out for rays whose material is already gone
+   there, or lies on both sides of the cut channel the tool moves in);
+3. **exact interval**: for primitives other than a full ball, the end-pose closed
+   form (``interval.endpoint_row``) or the normal-ray closed form
+   (``interval.normal_row``) of a whole row in one vectorised loop, between the first
+   and last ray whose capsule interval meets material; a ray along a cylinder's axis
+   and the rays those forms decline get ``parallel_cylinder_interval`` or
+   ``kernels.swept_interval`` (the general path and accuracy reference), after the
+   swept slab bound and the ray's own intervals have been checked.
+
+Rows are taken in bands of ``_BAND``: each band goes through all the moves of the
+batch before the next, so its rays stay in cache from one move to the next; every
+ray still sees the moves, and within a move the primitives, in order, so the result
+is that of the move-by-move sweep.
 
 Semantics are those of the per-primitive sweep in ``kernels``: moves in order, and
 within a move the cutting primitives before the body probes on each ray; per move
