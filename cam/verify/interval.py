@@ -381,10 +381,25 @@ def endpoint_row(  # type: ignore[no-untyped-def]
     out_a, out_b, out_ok, m0, m1, cj0, step, h, w0, tip1, w2, ag0, ag1, ag2, dg0, dg1, dg2,
     zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi,
 ):
-    """``endpoint_interval`` for rays ``m0 <= m < m1`` of one grid row (ray ``m`` at
-    ``cj0 + m step h``), into ``out_a``, ``out_b`` and ``out_ok``; branch-free so that
-    the loop vectorises. Needs ``|zu| > 1e-14`` and ``qa > 0``; the ray offsets from
-    the tip (``w0``, ``cj - tip1``, ``w2``) and the per-move terms as in the sweep."""
+    """``endpoint_interval`` for rays ``m0 <= m < m1`` of one grid row; branch-free so
+    that the loop vectorises. Needs ``|zu| > 1e-14`` and ``qa > 0``.
+
+    Parameters
+    ----------
+    out_a, out_b : (n,) float64
+        Interval ends along the rays (grid frame, mm), written at ``m0..m1-1``.
+    out_ok : (n,) bool
+        False where the general path is needed (the values there are meaningless).
+    cj0, step, h : float, int, float
+        Ray ``m`` lies at ``cj0 + m step h`` along the row, mm.
+    w0, tip1, w2 : float
+        Ray offset from the tip across the rows (``w0``), the tip's coordinate along
+        the row, and the ray origin's offset along the rays (``-tip``), mm.
+    ag0, ag1, ag2, dg0, dg1, dg2 : float
+        Tool axis (unit) and tip displacement (mm) in the grid frame.
+    zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi : float
+        Per-move and per-primitive terms as in ``kernels.swept_interval``.
+    """
     inv_qa = 1.0 / qa
     inv_zu = 1.0 / zu
     for m in range(m0, m1):
