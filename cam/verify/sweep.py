@@ -148,10 +148,11 @@ def sweep_grid(  # type: ignore[no-untyped-def]
     ``kernels.sweep_moves``).
 
     ``counters`` (6,) int64 accumulates, over all moves and primitives: rays in the
-    footprint spans, rays whose material range meets the capsule's interval, of those
-    (primitives other than a full ball) rays whose material range meets it cut to the
-    swept slab, exact intervals by a closed form, by the general ``swept_interval``,
-    and rays that lost material or overlap a body primitive.
+    footprint spans; rays whose interval (the exact one where a row form gave it, else
+    the capsule's) meets their material outside the first gap; of those (primitives
+    other than a full ball) rays that got an exact interval; exact intervals by a
+    closed form; by the general ``swept_interval``; rays that lost material or
+    overlap a body primitive.
 
     ``mat_lo``, ``mat_hi``, ``gap_lo``, ``gap_hi`` (R,) float64: ``material_range`` of
     the grid, kept up to date by the call (contiguous per row, so the material test
@@ -179,6 +180,8 @@ def sweep_grid(  # type: ignore[no-untyped-def]
     row_ok = np.zeros(max(shape[0], shape[1]) + 1, np.bool_)
     n_c0 = n_c1 = n_c2 = n_c3 = n_c4 = n_c5 = 0
     n_moves = tips.shape[0]
+    if n_moves == 0:
+        return -1
     # the rows each move can reach (all its primitives)
     reach_lo = np.full(n_moves, ni, np.int64)
     reach_hi = np.full(n_moves, -1, np.int64)
