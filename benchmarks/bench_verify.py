@@ -114,17 +114,27 @@ def run_sweep(case: str, pitch: float, moves_file: str, threads: int) -> dict:
     shape = tool_shape(_tool())
     warm = Stock.box([-1, -1, -1], [1, 1, 0], 0.5)
     warm.sweep(tips[:2] * 0, moves[:2] * 0, axes[:2], np.zeros(2, np.int32), shape)
-    stock = Stock.box(BOXES[case][0], BOXES[case][1], pitch)
-    if threads:
-        stock.threads = threads
-    before = stock.volume()
-    wall, cpu = time.perf_counter(), time.process_time()
-    stats = stock.sweep(tips, moves, axes, np.arange(len(tips), dtype=np.int32), shape)
-    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    # the same sweep on a fresh stock until 1.5 s of CPU (at most 10 runs, at least
+    # one): the fastest run counts (the machine is shared, interference only adds)
+    runs: list[tuple[float, float]] = []
+    while not runs or (sum(r[1] for r in runs) < 1.5 and len(runs) < 10):
+        stock = Stock.box(BOXES[case][0], BOXES[case][1], pitch)
+        if threads:
+            stock.threads = threads
+        before = stock.volume()
+        wall, cpu = time.perf_counter(), time.process_time()
+        stats = stock.sweep(tips, moves, axes, np.arange(len(tips), dtype=np.int32), shape)
+        runs.append((time.perf_counter() - wall, time.process_time() - cpu))
+    wall, cpu = min(r[0] for r in runs), min(r[1] for r in runs)
     counters = [int(sum(g.counters[i] for g in stock.grids)) for i in range(6)] if hasattr(
         stock.grids[0], "counters") else None
     return {"removed": before - stock.volume(), "wall": wall, "cpu": cpu, "moves": len(tips),
+            "runs": len(runs),
             "cut": float(stats[:, 0].sum()), "longest": float(stats[:, 1].max()),
+            # what the events are made of: moves cutting deeper than the contact
+            # tolerance along a ray (rapid_in_stock if a rapid), body contact deeper
+            "cutting": np.flatnonzero(stats[:, 1] > 0.01).tolist(),
+            "contact": np.flatnonzero(stats[:, 2] > 0.01).tolist(),
             "counters": counters,
             "memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
@@ -161,7 +171,7 @@ def _row(name: str, res: dict, ref: float) -> str:
     err = 100 * (res["removed"] - ref) / ref
     return (f"{name:22s} {res['moves']:6d} {res['cpu']:8.3f} {res['wall']:8.3f} "
             f"{res['moves'] / res['cpu']:10.0f} {res['moves'] / res['wall']:10.0f} "
-            f"{res['removed']:12.4f} {err:+9.5f} {res['memory_mb']:7.0f}")
+            f"{res['removed']:12.4f} {err:+9.5f} {res['memory_mb']:7.0f} {res.get('runs', 1):4d}")
 
 
 def main(old: Path, thirdparty: bool) -> None:
@@ -175,7 +185,7 @@ def main(old: Path, thirdparty: bool) -> None:
     })
     print(f"old engine: {old} (7e9ac6f); new engine: {ROOT}")
     print(f"{'case':22s} {'moves':>6s} {'cpu s':>8s} {'wall s':>8s} {'moves/cpu s':>10s} "
-          f"{'moves/wall s':>10s} {'removed mm3':>12s} {'vs old %':>9s} {'peak MB':>7s}")
+          f"{'moves/wall s':>10s} {'removed mm3':>12s} {'vs old %':>9s} {'peak MB':>7s} runs")
     for case in ("3axis", "5axis"):
         for pitch in (0.1, 0.05):
             args = (case, str(pitch), str(moves_file))
@@ -191,6 +201,11 @@ def main(old: Path, thirdparty: bool) -> None:
                   f"{before['wall'] / two['wall']:.1f}x per wall s (2 threads); "
                   f"volume {'identical' if one['removed'] == two['removed'] else 'DIFFERS'}"
                   f" for 1 and 2 threads", flush=True)
+            same = all(r["cutting"] == before["cutting"] and r["contact"] == before["contact"]
+                       for r in (one, two))
+            print(f"     moves cutting > 0.01 mm along a ray: {len(before['cutting'])} (old), "
+                  f"body contact: {len(before['contact'])}; event moves "
+                  f"{'the same' if same else 'DIFFER'} (old, new 1 and 2 threads)")
             per = [c / one["moves"] for c in one["counters"]]
             print(f"     per move (new): {per[0]:.0f} rays in the footprint, {per[1]:.0f} whose "
                   f"material meets the capsule, {per[3]:.0f} closed-form and {per[4]:.0f} "

@@ -18,6 +18,12 @@ path. ``tests/cam/test_verify_interval.py`` compares each with ``swept_interval`
   the move: rays grazing the side of the sweep, a thin band for a short move) is the
   general path needed. The slopes come from implicit differentiation of the active
   constraint; at a tie of two constraints the slope of either one is conservative.
+* ``normal_interval``: a ray normal to the tool axis (``zu = 0``: the X and Y rays of
+  a vertical tool). The height along the axis no longer depends on ``t``, so the slab
+  is an ``s`` range and the region in ``(t, s)`` is the conic cut by two lines
+  ``s = const``: its extremes are the conic's roots on those two lines and the points
+  of the conic on the tangency line ``dQ/ds = 0`` inside the range (three quadratics,
+  no case of the general path can be missed).
 * ``stadium_row``: the span of one grid row inside the projection of a capsule (a
   disc swept along a segment), so a move visits only the rays it can reach.
 """
@@ -205,7 +211,7 @@ def _static(s, qa, inv_qa, qb, qc, qd, qe, qf, zw, inv_zu, zd, zlo, zhi):  # typ
     return True, lo, hi, dlo, dhi
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def endpoint_interval(  # type: ignore[no-untyped-def]
     qa, qb, qc, qd, qe, qf, zw, zu, zd, zlo, zhi
 ):
@@ -241,7 +247,182 @@ def endpoint_interval(  # type: ignore[no-untyped-def]
     return True, tmin, tmax
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always", error_model="numpy")
+def _roots_at(s, qa, qb, qc, qd, qe, qf, tmin, tmax):  # type: ignore[no-untyped-def]
+    """Widen ``(tmin, tmax)`` by the roots of ``Q(t, s) = 0`` at a fixed ``s``
+    (selects, no branches)."""
+    b = qb * s + qd
+    c = (qc * s + 2.0 * qe) * s + qf
+    disc = b * b - qa * c
+    has = disc >= 0.0
+    root = math.sqrt(disc if has else 0.0)
+    q = -(b + root) if b >= 0.0 else -(b - root)
+    zero = q == 0.0
+    r1 = q / qa
+    r2 = c / q
+    lo = 0.0 if zero else min(r1, r2)
+    hi = 0.0 if zero else max(r1, r2)
+    return (min(tmin, lo) if has else tmin), (max(tmax, hi) if has else tmax)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _normal_sel(qa, qb, qc, qd, qe, qf, zw, zd, zlo, zhi, alpha):  # type: ignore[no-untyped-def]
+    """``normal_interval`` with selects instead of branches (vectorises in a row)."""
+    # the slab zlo <= zw - zd s <= zhi as an s range within [0, 1]
+    moving = abs(zd) > _TINY
+    sa = (zw - zhi) / zd
+    sb = (zw - zlo) / zd
+    inside = (zlo <= zw) & (zw <= zhi)
+    s0 = max(0.0, min(sa, sb)) if moving else 0.0
+    s1 = min(1.0, max(sa, sb)) if moving else (1.0 if inside else -1.0)
+    empty = s1 < s0
+    tmin, tmax = _roots_at(s0, qa, qb, qc, qd, qe, qf, math.inf, -math.inf)
+    tmin, tmax = _roots_at(s1, qa, qb, qc, qd, qe, qf, tmin, tmax)
+    # the tangency line qb t + qc s + qe = 0 on the conic: multiplied by qc,
+    # A t^2 + 2 B t + C = 0. No move across the axis (qc ~ 0): Q is linear in s, the
+    # extremes lie on the lines. A = 0 for a sphere or cylinder moved along the ray
+    # (within the plane normal to the axis): the section is a strip along the move,
+    # its extremes on the lines too. A nearly 0 otherwise: round-off, general path.
+    a = qa * qc - qb * qb
+    b = qd * qc - qb * qe
+    c = qf * qc - qe * qe
+    flat = qc <= _TINY
+    strip = (a == 0.0) & (alpha >= 0.0)
+    near = abs(a) <= 1e-9 * qa * qc
+    ok = ((alpha >= 0.0) & (abs(qb) <= _TINY)) if flat else (strip | (not near))
+    tangent = (not flat) & (not near)
+    disc = b * b - a * c
+    has = tangent & (disc >= 0.0)
+    root = math.sqrt(disc if has else 0.0)
+    q = -(b + root) if b >= 0.0 else -(b - root)
+    ok = ok & (not (has & (q == 0.0)))
+    t1 = q / a
+    t2 = c / q
+    s1_ = -(qb * t1 + qe) / qc
+    s2_ = -(qb * t2 + qe) / qc
+    in1 = has & (s0 <= s1_) & (s1_ <= s1)
+    in2 = has & (s0 <= s2_) & (s2_ <= s1)
+    tmin = min(tmin, t1) if in1 else tmin
+    tmax = max(tmax, t1) if in1 else tmax
+    tmin = min(tmin, t2) if in2 else tmin
+    tmax = max(tmax, t2) if in2 else tmax
+    return (ok | empty), (math.inf if empty else tmin), (-math.inf if empty else tmax)
+
+
+@njit(cache=True, error_model="numpy")
+def normal_interval(  # type: ignore[no-untyped-def]
+    qa, qb, qc, qd, qe, qf, zw, zd, zlo, zhi, alpha
+):
+    """Swept interval of a ray normal to the tool axis (``zu = 0``, module doc).
+
+    Same coefficients as ``kernels.swept_interval`` (``qa = 1`` here); ``alpha`` is the
+    primitive's quadratic term. Returns ``(ok, tmin, tmax)`` (``tmin > tmax``: the ray
+    misses); ``ok`` False for a cone whose section degenerates, or a nearly degenerate
+    section (use the general path).
+    """
+    return _normal_sel(qa, qb, qc, qd, qe, qf, zw, zd, zlo, zhi, alpha)
+
+
+@njit(cache=True, error_model="numpy")
+def normal_row(  # type: ignore[no-untyped-def]
+    out_a, out_b, out_ok, m0, m1, cj0, step, h, w0, tip1, w2, ag0, ag1, ag2, dg0, dg1, dg2,
+    zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi,
+):
+    """``normal_interval`` for rays ``m0 <= m < m1`` of one grid row, arguments as
+    ``endpoint_row``; branch-free so that the loop vectorises."""
+    for m in range(m0, m1):
+        cj = cj0 + m * step * h
+        w1 = cj - tip1
+        zw = ag0 * w0 + ag1 * w1 + ag2 * w2
+        wu = w2 - zw * zu
+        wd = w0 * dg0 + w1 * dg1 + w2 * dg2 - zw * zd
+        ww = w0 * w0 + w1 * w1 + w2 * w2 - zw * zw
+        qd = wu + alpha * zw * zu + 0.5 * beta * zu
+        qe = -wd - alpha * zw * zd - 0.5 * beta * zd
+        qf = ww + alpha * zw * zw + beta * zw + gamma
+        ok, ta, tb = _normal_sel(qa, qb, qc, qd, qe, qf, zw, zd, zlo, zhi, alpha)
+        out_a[m] = ta
+        out_b[m] = tb
+        out_ok[m] = ok
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _static_sel(s, qa, inv_qa, qb, qc, qd, qe, qf, zw, inv_zu, zd, zlo, zhi):  # type: ignore[no-untyped-def]
+    """``_static`` for ``inv_zu != 0`` written with selects instead of branches (the
+    same operations, so the same numbers), for a loop that vectorises."""
+    b = qb * s + qd
+    c = (qc * s + 2.0 * qe) * s + qf
+    disc = b * b - qa * c
+    ok = disc > 0.0
+    root = math.sqrt(disc if ok else 1.0)
+    q = -(b + root) if b >= 0.0 else -(b - root)
+    r1 = q * inv_qa
+    r2 = c / q
+    cl = min(r1, r2)
+    ch = max(r1, r2)
+    g = qc * s + qe
+    inv_root = 1.0 / root
+    dcl = (qb * cl + g) * inv_root
+    dch = -(qb * ch + g) * inv_root
+    za = (zlo - zw + zd * s) * inv_zu
+    zb = (zhi - zw + zd * s) * inv_zu
+    sl = min(za, zb)
+    sh = max(za, zb)
+    dsl = zd * inv_zu
+    lo = cl if cl >= sl else sl
+    dlo = dcl if cl >= sl else dsl
+    hi = ch if ch <= sh else sh
+    dhi = dch if ch <= sh else dsl
+    return ok & (hi >= lo), lo, hi, dlo, dhi
+
+
+@njit(cache=True, error_model="numpy")
+def endpoint_row(  # type: ignore[no-untyped-def]
+    out_a, out_b, out_ok, m0, m1, cj0, step, h, w0, tip1, w2, ag0, ag1, ag2, dg0, dg1, dg2,
+    zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi,
+):
+    """``endpoint_interval`` for rays ``m0 <= m < m1`` of one grid row; branch-free so
+    that the loop vectorises. Needs ``|zu| > 1e-14`` and ``qa > 0``.
+
+    Parameters
+    ----------
+    out_a, out_b : (n,) float64
+        Interval ends along the rays (grid frame, mm), written at ``m0..m1-1``.
+    out_ok : (n,) bool
+        False where the general path is needed (the values there are meaningless).
+    cj0, step, h : float, int, float
+        Ray ``m`` lies at ``cj0 + m step h`` along the row, mm.
+    w0, tip1, w2 : float
+        Ray offset from the tip across the rows (``w0``), the tip's coordinate along
+        the row, and the ray origin's offset along the rays (``-tip``), mm.
+    ag0, ag1, ag2, dg0, dg1, dg2 : float
+        Tool axis (unit) and tip displacement (mm) in the grid frame.
+    zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi : float
+        Per-move and per-primitive terms as in ``kernels.swept_interval``.
+    """
+    inv_qa = 1.0 / qa
+    inv_zu = 1.0 / zu
+    for m in range(m0, m1):
+        cj = cj0 + m * step * h
+        w1 = cj - tip1
+        zw = ag0 * w0 + ag1 * w1 + ag2 * w2
+        wu = w2 - zw * zu
+        wd = w0 * dg0 + w1 * dg1 + w2 * dg2 - zw * zd
+        ww = w0 * w0 + w1 * w1 + w2 * w2 - zw * zw
+        qd = wu + alpha * zw * zu + 0.5 * beta * zu
+        qe = -wd - alpha * zw * zd - 0.5 * beta * zd
+        qf = ww + alpha * zw * zw + beta * zw + gamma
+        ok0, lo0, hi0, dlo0, dhi0 = _static_sel(0.0, qa, inv_qa, qb, qc, qd, qe, qf, zw,
+                                                inv_zu, zd, zlo, zhi)
+        ok1, lo1, hi1, dlo1, dhi1 = _static_sel(1.0, qa, inv_qa, qb, qc, qd, qe, qf, zw,
+                                                inv_zu, zd, zlo, zhi)
+        out_a[m] = lo0 if dlo0 >= 0.0 else lo1
+        out_b[m] = hi0 if dhi0 <= 0.0 else hi1
+        out_ok[m] = (ok0 & ok1 & ((dlo0 >= 0.0) | (dlo1 <= 0.0))
+                     & ((dhi0 <= 0.0) | (dhi1 >= 0.0)))
+
+
+@njit(cache=True, inline="always", error_model="numpy")
 def stadium_row(x, p0x, p0y, p1x, p1y, rho):  # type: ignore[no-untyped-def]
     """Span ``(ylo, yhi)`` of the line ``X = x`` within ``rho`` of the segment p0-p1
     (2-D); ``ylo > yhi`` when it misses. The stadium is convex, so the span is the

@@ -81,13 +81,13 @@ def _sweep_grid(
     touched = np.zeros(n_rays + 1, np.int64)
     first = 0
     t_lo, t_hi = tile_bounds(grid.lo, grid.hi, grid.start, grid.count, grid.shape, TILE)
-    mat_lo, mat_hi = material_range(grid.lo, grid.hi, grid.start, grid.count)
+    mat_lo, mat_hi, gap_lo, gap_hi = material_range(grid.lo, grid.hi, grid.start, grid.count)
     while True:
         failed = sweep_grid(
             grid.lo, grid.hi, grid.lo_move, grid.hi_move, grid.start, grid.count,
             grid.cap, grid.used, grid.k, grid.origin, grid.shape, grid.pitch,
             t_lo, t_hi, TILE, tips, moves, axes, ids, prims, cuts, strides, first, stats,
-            acc, touched, grid.counters, mat_lo, mat_hi,
+            acc, touched, grid.counters, mat_lo, mat_hi, gap_lo, gap_hi,
         )
         if failed < 0:
             return stats

@@ -12,11 +12,22 @@ hold material there, in three filters of rising cost:
    the two. Per grid row, ``interval.stadium_row`` gives the span of rays inside the
    capsule's projection; blocks of ``tile`` x ``tile`` rays whose material range
    misses the sweep's range along the rays are skipped;
-2. **material**: the capsule's interval on the ray (exact for a sphere), cut to the
-   swept slab ``zlo <= z <= zhi``, against the ray's material range: no overlap, no
-   more work (the early-out for rays whose material is already gone there);
-3. **exact interval**: the closed forms of ``cam.verify.interval`` where they apply,
-   else ``kernels.swept_interval`` (the general path and accuracy reference).
+2. **material**: the capsule's interval on the ray (exact for a sphere) against the
+   ray's material range and its first gap (both kept per ray, up to date): no
+   overlap, no more work (the early-out for rays whose material is already gone
+   there, or lies on both sides of the cut channel the tool moves in);
+3. **exact interval**: for primitives other than a full ball, the end-pose closed
+   form (``interval.endpoint_row``) or the normal-ray closed form
+   (``interval.normal_row``) of a whole row in one vectorised loop, between the first
+   and last ray whose capsule interval meets material; a ray along a cylinder's axis
+   and the rays those forms decline get ``parallel_cylinder_interval`` or
+   ``kernels.swept_interval`` (the general path and accuracy reference), after the
+   swept slab bound and the ray's own intervals have been checked.
+
+Rows are taken in bands of ``_BAND``: each band goes through all the moves of the
+batch before the next, so its rays stay in cache from one move to the next; every
+ray still sees the moves, and within a move the primitives, in order, so the result
+is that of the move-by-move sweep.
 
 Semantics are those of the per-primitive sweep in ``kernels``: moves in order, and
 within a move the cutting primitives before the body probes on each ray; per move
@@ -34,6 +45,9 @@ from numba import njit
 from cam.verify.interval import (
     capsule_row,
     endpoint_interval,
+    endpoint_row,
+    normal_interval,
+    normal_row,
     parallel_cylinder_interval,
     stadium_row,
 )
@@ -41,6 +55,7 @@ from cam.verify.kernels import MIN_PIECE, _subtract, swept_interval_scalar
 
 _PAR = 1e-12
 _GUARD = 1e-9  # mm added to every bound
+_BAND = 8  # grid rows swept through all the moves of a batch at a time
 
 
 @njit(cache=True, inline="always")
@@ -78,43 +93,78 @@ def _add_counts(counters, c0, c1, c2, c3, c4, c5):  # type: ignore[no-untyped-de
 
 @njit(cache=True, nogil=True)
 def material_range(lo, hi, start, count):  # type: ignore[no-untyped-def]
-    """Per ray: lowest start and highest end of its material (inf, -inf when none)."""
+    """Per ray: lowest start and highest end of its material (inf, -inf when none),
+    and its first gap, the end of its first interval and the start of its second
+    (inf, -inf when it has fewer than two)."""
     n_rays = count.shape[0]
     mat_lo = np.full(n_rays, np.inf)
     mat_hi = np.full(n_rays, -np.inf)
+    gap_lo = np.full(n_rays, np.inf)
+    gap_hi = np.full(n_rays, -np.inf)
     for r in range(n_rays):
         n = count[r]
         if n > 0:
             mat_lo[r] = lo[start[r]]
             mat_hi[r] = hi[start[r] + n - 1]
-    return mat_lo, mat_hi
+        if n > 1:
+            gap_lo[r] = hi[start[r]]
+            gap_hi[r] = lo[start[r] + 1]
+    return mat_lo, mat_hi, gap_lo, gap_hi
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, inline="always")
+def _move_frame(tips, moves, axes, mv, ia, ja, k, tipg, dg, ag):  # type: ignore[no-untyped-def]
+    """Tip, displacement and axis of move ``mv`` in the grid frame ``(ia, ja, k)``."""
+    tipg[0] = tips[mv, ia]
+    tipg[1] = tips[mv, ja]
+    tipg[2] = tips[mv, k]
+    dg[0] = moves[mv, ia]
+    dg[1] = moves[mv, ja]
+    dg[2] = moves[mv, k]
+    ag[0] = axes[mv, ia]
+    ag[1] = axes[mv, ja]
+    ag[2] = axes[mv, k]
+
+
+@njit(cache=True, inline="always")
+def _rows(p0x, p1x, rho, origin0, h, ni):  # type: ignore[no-untyped-def]
+    """First and last grid row (``i``) within ``rho`` of the capsule's axis span."""
+    xlo = min(p0x, p1x) - rho
+    xhi = max(p0x, p1x) + rho
+    i0 = max(0, int(math.ceil((xlo - origin0) / h - 0.5)))
+    i1 = min(ni - 1, int(math.floor((xhi - origin0) / h - 0.5)))
+    return i0, i1
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def sweep_grid(  # type: ignore[no-untyped-def]
     lo, hi, lom, him, start, count, cap, used,
     k, origin, shape, h,
     tile_lo, tile_hi, tile,
     tips, moves, axes, move_ids, prims, cuts, strides, first, stats, acc, touched, counters,
-    mat_lo, mat_hi,
+    mat_lo, mat_hi, gap_lo, gap_hi,
 ):
     """Sweep moves ``first..`` through one dexel grid (arguments as in
     ``kernels.sweep_moves``).
 
     ``counters`` (6,) int64 accumulates, over all moves and primitives: rays in the
-    footprint spans, rays whose material range meets the capsule's interval, of those
-    (primitives other than a full ball) rays whose material range meets it cut to the
-    swept slab, exact intervals by a closed form, by the general ``swept_interval``,
-    and rays that lost material or overlap a body primitive.
+    footprint spans; rays whose interval (the exact one where a row form gave it, else
+    the capsule's) meets their material outside the first gap; of those (primitives
+    other than a full ball) rays that got an exact interval; exact intervals by a
+    closed form; by the general ``swept_interval``; rays that lost material or
+    overlap a body primitive.
 
-    ``mat_lo``, ``mat_hi`` (R,) float64: ``material_range`` of the grid, kept up to
-    date by the call (contiguous per row, so the material test vectorises).
+    ``mat_lo``, ``mat_hi``, ``gap_lo``, ``gap_hi`` (R,) float64: ``material_range`` of
+    the grid, kept up to date by the call (contiguous per row, so the material test
+    vectorises).
 
     ``acc`` (R,) float64 zeros and ``touched`` (R + 1,) int64 (``touched[0]``: count)
     hold the per-ray cut of the move in progress, so a move resumed after a pool
     overflow still reports its longest cut; both are left clean when the call ends.
 
-    Returns -1 when done, else the move at which the pool overflowed (grow, resume).
+    ``first``: where to start, 0 or the value returned by the call that overflowed.
+    Returns -1 when done, else the position (band of rows and move) at which the pool
+    overflowed: grow it and call again with that as ``first``.
     """
     ia = (k + 1) % 3
     ja = (k + 2) % 3
@@ -125,190 +175,267 @@ def sweep_grid(  # type: ignore[no-untyped-def]
     ag = np.empty(3)
     row_a = np.empty(max(shape[0], shape[1]) + 1)
     row_b = np.empty(max(shape[0], shape[1]) + 1)
+    row_c = np.empty(max(shape[0], shape[1]) + 1)
+    row_d = np.empty(max(shape[0], shape[1]) + 1)
+    row_ok = np.zeros(max(shape[0], shape[1]) + 1, np.bool_)
     n_c0 = n_c1 = n_c2 = n_c3 = n_c4 = n_c5 = 0
-    for mv in range(first, tips.shape[0]):
-        for c, w in ((0, ia), (1, ja), (2, k)):
-            tipg[c] = tips[mv, w]
-            dg[c] = moves[mv, w]
-            ag[c] = axes[mv, w]
-        zu = ag[2]
-        zd = ag[0] * dg[0] + ag[1] * dg[1] + ag[2] * dg[2]
-        uu = 1.0 - zu * zu
-        ud = dg[2] - zu * zd
-        dd = dg[0] * dg[0] + dg[1] * dg[1] + dg[2] * dg[2] - zd * zd
+    n_moves = tips.shape[0]
+    if n_moves == 0:
+        return -1
+    # the rows each move can reach (all its primitives)
+    reach_lo = np.full(n_moves, ni, np.int64)
+    reach_hi = np.full(n_moves, -1, np.int64)
+    for mv in range(n_moves):
+        _move_frame(tips, moves, axes, mv, ia, ja, k, tipg, dg, ag)
         for p in range(prims.shape[0]):
-            alpha, beta, gamma = prims[p, 0], prims[p, 1], prims[p, 2]
-            zlo, zhi, rmax = prims[p, 3], prims[p, 4], prims[p, 5]
-            cutting = cuts[p]
-            step = strides[p]
             p0x, p0y, p0z, ux, uy, uz, length, rho, exact = _capsule(
                 tipg[0], tipg[1], tipg[2], dg[0], dg[1], dg[2], ag[0], ag[1], ag[2],
-                alpha, beta, gamma, zlo, zhi, rmax)
-            rho2 = rho * rho
-            p1x = p0x + length * ux
-            p1y = p0y + length * uy
-            kmin = min(p0z, p0z + length * uz) - rho
-            kmax = max(p0z, p0z + length * uz) + rho
-            xlo = min(p0x, p1x) - rho
-            xhi = max(p0x, p1x) + rho
-            i0 = max(0, int(math.ceil((xlo - origin[0]) / h - 0.5)))
-            i1 = min(ni - 1, int(math.floor((xhi - origin[0]) / h - 0.5)))
-            i0 += (-i0) % step
-            qa = uu + alpha * zu * zu
-            qb = -ud - alpha * zu * zd
-            qc = dd + alpha * zd * zd
-            parallel = alpha == 0.0 and uu < _PAR
-            for ii in range(i0, i1 + 1, step):
-                ci = origin[0] + (ii + 0.5) * h
-                ylo, yhi = stadium_row(ci, p0x, p0y, p1x, p1y, rho)
-                if not ylo <= yhi:
-                    continue
-                j0 = max(0, int(math.ceil((ylo - origin[1]) / h - 0.5)))
-                j1 = min(nj - 1, int(math.floor((yhi - origin[1]) / h - 0.5)))
-                j0 += (-j0) % step
-                ti = ii // tile
-                # trim the span to the tiles whose material can meet the sweep
-                while j0 <= j1 and (tile_lo[ti, j0 // tile] >= kmax
-                                    or tile_hi[ti, j0 // tile] <= kmin):
-                    j0 = (j0 // tile + 1) * tile
+                prims[p, 0], prims[p, 1], prims[p, 2], prims[p, 3], prims[p, 4], prims[p, 5])
+            i0, i1 = _rows(p0x, p0x + length * ux, rho, origin[0], h, ni)
+            reach_lo[mv] = min(reach_lo[mv], i0)
+            reach_hi[mv] = max(reach_hi[mv], i1)
+    # bands of rows, each through all the moves in order: a band's rays stay in cache
+    # from one move to the next; every ray still sees the moves in order
+    for band in range(first // n_moves, (ni + _BAND - 1) // _BAND):
+        b_lo = band * _BAND
+        b_hi = min(ni - 1, b_lo + _BAND - 1)
+        mv0 = first % n_moves if band == first // n_moves else 0
+        for mv in range(mv0, n_moves):
+            if reach_hi[mv] < b_lo or reach_lo[mv] > b_hi:
+                continue
+            _move_frame(tips, moves, axes, mv, ia, ja, k, tipg, dg, ag)
+            removed = 0.0  # this move's sums in this band (into stats at its end)
+            overlap = 0.0
+            overlap_max = 0.0
+            zu = ag[2]
+            zd = ag[0] * dg[0] + ag[1] * dg[1] + ag[2] * dg[2]
+            uu = 1.0 - zu * zu
+            ud = dg[2] - zu * zd
+            dd = dg[0] * dg[0] + dg[1] * dg[1] + dg[2] * dg[2] - zd * zd
+            for p in range(prims.shape[0]):
+                alpha, beta, gamma = prims[p, 0], prims[p, 1], prims[p, 2]
+                zlo, zhi, rmax = prims[p, 3], prims[p, 4], prims[p, 5]
+                cutting = cuts[p]
+                step = strides[p]
+                p0x, p0y, p0z, ux, uy, uz, length, rho, exact = _capsule(
+                    tipg[0], tipg[1], tipg[2], dg[0], dg[1], dg[2], ag[0], ag[1], ag[2],
+                    alpha, beta, gamma, zlo, zhi, rmax)
+                rho2 = rho * rho
+                p1x = p0x + length * ux
+                p1y = p0y + length * uy
+                kmin = min(p0z, p0z + length * uz) - rho
+                kmax = max(p0z, p0z + length * uz) + rho
+                i0, i1 = _rows(p0x, p1x, rho, origin[0], h, ni)
+                i0 = max(i0, b_lo)
+                i1 = min(i1, b_hi)
+                i0 += (-i0) % step  # probed rows: multiples of the stride
+                qa = uu + alpha * zu * zu
+                qb = -ud - alpha * zu * zd
+                qc = dd + alpha * zd * zd
+                parallel = alpha == 0.0 and uu < _PAR
+                normal = abs(zu) <= 1e-14
+                # end-pose intervals of a whole row at once (vectorised)
+                rowwise = not exact and not parallel and (normal or qa > 1e-9)
+                for ii in range(i0, i1 + 1, step):
+                    ci = origin[0] + (ii + 0.5) * h
+                    ylo, yhi = stadium_row(ci, p0x, p0y, p1x, p1y, rho)
+                    if not ylo <= yhi:
+                        continue
+                    j0 = max(0, int(math.ceil((ylo - origin[1]) / h - 0.5)))
+                    j1 = min(nj - 1, int(math.floor((yhi - origin[1]) / h - 0.5)))
                     j0 += (-j0) % step
-                while j1 >= j0 and (tile_lo[ti, j1 // tile] >= kmax
-                                    or tile_hi[ti, j1 // tile] <= kmin):
-                    j1 = (j1 // tile) * tile - 1
-                if j1 < j0:
-                    continue
-                mx = ci - p0x
-                w0 = ci - tipg[0]
-                nspan = (j1 - j0) // step + 1
-                cj0 = origin[1] + (j0 + 0.5) * h
-                capsule_row(row_a, row_b, nspan, mx, cj0 - p0y, step * h, -p0z,
-                            ux, uy, uz, length, rho2)
-                n_c0 += nspan
-                r0 = ii * nj + j0
-                for m in range(nspan):
-                    ta = row_a[m]
-                    tb = row_b[m]
-                    r = r0 + m * step
-                    mlo = mat_lo[r]
-                    mhi = mat_hi[r]
-                    if not (tb > ta and ta < mhi and tb > mlo):
+                    ti = ii // tile
+                    # trim the span to the tiles whose material can meet the sweep
+                    while j0 <= j1 and (tile_lo[ti, j0 // tile] >= kmax
+                                        or tile_hi[ti, j0 // tile] <= kmin):
+                        j0 = (j0 // tile + 1) * tile
+                        j0 += (-j0) % step
+                    while j1 >= j0 and (tile_lo[ti, j1 // tile] >= kmax
+                                        or tile_hi[ti, j1 // tile] <= kmin):
+                        j1 = (j1 // tile) * tile - 1
+                    if j1 < j0:
                         continue
-                    tj = (j0 + m * step) // tile
-                    if tile_lo[ti, tj] >= kmax or tile_hi[ti, tj] <= kmin:
-                        continue
-                    n_c1 += 1
-                    if not exact:
-                        cj = cj0 + m * step * h
-                        w1 = cj - tipg[1]
-                        w2 = -tipg[2]
-                        zw = ag[0] * w0 + ag[1] * w1 + ag[2] * w2
-                        # the swept slab along the ray
-                        if abs(zu) > 1e-14:
-                            za = (zlo - zw + min(0.0, zd)) / zu
-                            zb = (zhi - zw + max(0.0, zd)) / zu
-                            sa = max(ta, min(za, zb) - _GUARD)
-                            sb = min(tb, max(za, zb) + _GUARD)
-                            if not (sb > sa and sa < mhi and sb > mlo):
-                                continue
-                        elif zw - max(0.0, zd) > zhi or zw - min(0.0, zd) < zlo:
+                    mx = ci - p0x
+                    w0 = ci - tipg[0]
+                    nspan = (j1 - j0) // step + 1
+                    cj0 = origin[1] + (j0 + 0.5) * h
+                    capsule_row(row_a, row_b, nspan, mx, cj0 - p0y, step * h, -p0z,
+                                ux, uy, uz, length, rho2)
+                    n_c0 += nspan
+                    r0 = ii * nj + j0
+                    # the rays whose capsule interval meets their material range,
+                    # before the exact intervals of a row are computed
+                    m_first = 0
+                    m_last = nspan - 1
+                    if rowwise:
+                        m_first = nspan
+                        m_last = -1
+                        for m in range(nspan):
+                            r = r0 + m * step
+                            if (row_b[m] > row_a[m] and row_a[m] < mat_hi[r]
+                                    and row_b[m] > mat_lo[r]):
+                                m_first = min(m_first, m)
+                                m_last = m
+                        if m_last < 0:
                             continue
-                        n_c2 += 1
-                        wu = w2 - zw * zu
-                        wd = w0 * dg[0] + w1 * dg[1] + w2 * dg[2] - zw * zd
-                        ww = w0 * w0 + w1 * w1 + w2 * w2 - zw * zw
-                        qd = wu + alpha * zw * zu + 0.5 * beta * zu
-                        qe = -wd - alpha * zw * zd - 0.5 * beta * zd
-                        qf = ww + alpha * zw * zw + beta * zw + gamma
-                        done = False
-                        if parallel:
-                            ta, tb = parallel_cylinder_interval(qc, qe, qf, zw, zu, zd,
-                                                                zlo, zhi)
-                            done = True
-                        elif qa > 1e-9:
-                            done, ta, tb = endpoint_interval(qa, qb, qc, qd, qe, qf, zw,
-                                                             zu, zd, zlo, zhi)
-                        if done:
+                    if rowwise and normal:
+                        normal_row(row_c, row_d, row_ok, m_first, m_last + 1, cj0, step, h,
+                                   w0, tipg[1], -tipg[2], ag[0], ag[1], ag[2], dg[0], dg[1],
+                                   dg[2], zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi)
+                    elif rowwise:
+                        endpoint_row(row_c, row_d, row_ok, m_first, m_last + 1, cj0, step,
+                                     h, w0, tipg[1], -tipg[2], ag[0], ag[1], ag[2], dg[0],
+                                     dg[1], dg[2], zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi)
+                    for m in range(m_first, m_last + 1):
+                        known = rowwise and row_ok[m]
+                        ta = row_c[m] if known else row_a[m]
+                        tb = row_d[m] if known else row_b[m]
+                        r = r0 + m * step
+                        mlo = mat_lo[r]
+                        mhi = mat_hi[r]
+                        # no material there, or all of it in the ray's first gap
+                        if not (tb > ta and ta < mhi and tb > mlo
+                                and (ta < gap_lo[r] or tb > gap_hi[r])):
+                            continue
+                        n_c1 += 1
+                        if known:
+                            n_c2 += 1
                             n_c3 += 1
-                        else:
-                            n_c4 += 1
-                            ta, tb = swept_interval_scalar(qa, qb, qc, qd, qe, qf, zw, zu,
-                                                           zd, zlo, zhi)
-                        if not (tb > ta and ta < mhi and tb > mlo):
-                            continue
-                    base = start[r]
-                    n = count[r]
-                    if not cutting:
-                        got = 0.0
-                        for q in range(n):
-                            x0 = max(lo[base + q], ta)
-                            x1 = min(hi[base + q], tb)
-                            if x1 > x0:
-                                got += x1 - x0
-                        n_c5 += 1 if got > 0.0 else 0
-                        stats[mv, 2] += got
-                        stats[mv, 3] = max(stats[mv, 3], got)
-                        continue
-                    # the common subtractions written out here: a helper taking the
-                    # pool arrays costs two atomic reference-count updates per array
-                    # and call, more than the subtraction itself
-                    mid = move_ids[mv]
-                    i = 0
-                    while i < n and hi[base + i] <= ta:
-                        i += 1
-                    if i == n or lo[base + i] >= tb:
-                        continue
-                    j = i
-                    got = 0.0
-                    while j < n and lo[base + j] < tb:
-                        got += min(hi[base + j], tb) - max(lo[base + j], ta)
-                        j += 1
-                    left_lo = lo[base + i]
-                    left_lom = lom[base + i]
-                    right_hi = hi[base + j - 1]
-                    right_him = him[base + j - 1]
-                    keep_left = left_lo < ta - MIN_PIECE
-                    keep_right = right_hi > tb + MIN_PIECE
-                    delta = int(keep_left) + int(keep_right) - (j - i)
-                    if delta == 0 or (j == n and (delta < 0 or n < cap[r])):
-                        # nothing to shift: rewrite the met intervals in place
-                        w = base + i
-                        if keep_left:
-                            lo[w] = left_lo
-                            lom[w] = left_lom
-                            hi[w] = ta
-                            him[w] = mid
-                            w += 1
-                        if keep_right:
-                            lo[w] = tb
-                            lom[w] = mid
-                            hi[w] = right_hi
-                            him[w] = right_him
-                        count[r] = n + delta
-                    else:
-                        got = -1.0
-                    if got < 0.0:
-                        got = _subtract(lo, hi, lom, him, start, count, cap, used, r,
-                                        ta, tb, mid)
-                        if got < 0.0:
-                            _add_counts(counters, n_c0, n_c1, n_c2, n_c3, n_c4, n_c5)
-                            return mv
+                        elif not exact:
+                            cj = cj0 + m * step * h
+                            w1 = cj - tipg[1]
+                            w2 = -tipg[2]
+                            zw = ag[0] * w0 + ag[1] * w1 + ag[2] * w2
+                            # the swept slab along the ray
+                            if abs(zu) > 1e-14:
+                                za = (zlo - zw + min(0.0, zd)) / zu
+                                zb = (zhi - zw + max(0.0, zd)) / zu
+                                sa = max(ta, min(za, zb) - _GUARD)
+                                sb = min(tb, max(za, zb) + _GUARD)
+                                if not (sb > sa and sa < mhi and sb > mlo):
+                                    continue
+                            elif zw - max(0.0, zd) > zhi or zw - min(0.0, zd) < zlo:
+                                continue
+                            else:
+                                sa = ta
+                                sb = tb
+                            # the ray's intervals against that bound (rays with material
+                            # on both sides of a cut channel pass the range test)
+                            base = start[r]
+                            n = count[r]
+                            i = 0
+                            while i < n and hi[base + i] <= sa:
+                                i += 1
+                            if i == n or lo[base + i] >= sb:
+                                continue
+                            n_c2 += 1
+                            wu = w2 - zw * zu
+                            wd = w0 * dg[0] + w1 * dg[1] + w2 * dg[2] - zw * zd
+                            ww = w0 * w0 + w1 * w1 + w2 * w2 - zw * zw
+                            qd = wu + alpha * zw * zu + 0.5 * beta * zu
+                            qe = -wd - alpha * zw * zd - 0.5 * beta * zd
+                            qf = ww + alpha * zw * zw + beta * zw + gamma
+                            done = False
+                            if parallel:
+                                ta, tb = parallel_cylinder_interval(qc, qe, qf, zw, zu, zd,
+                                                                    zlo, zhi)
+                                done = True
+                            elif normal and not rowwise:
+                                done, ta, tb = normal_interval(qa, qb, qc, qd, qe, qf, zw, zd,
+                                                               zlo, zhi, alpha)
+                            if not done and qa > 1e-9 and not rowwise:
+                                done, ta, tb = endpoint_interval(qa, qb, qc, qd, qe, qf, zw,
+                                                                 zu, zd, zlo, zhi)
+                            if done:
+                                n_c3 += 1
+                            else:
+                                n_c4 += 1
+                                ta, tb = swept_interval_scalar(qa, qb, qc, qd, qe, qf, zw, zu,
+                                                               zd, zlo, zhi)
+                            if not (tb > ta and ta < mhi and tb > mlo):
+                                continue
                         base = start[r]
-                    n = count[r]
-                    mat_lo[r] = lo[base] if n > 0 else np.inf
-                    mat_hi[r] = hi[base + n - 1] if n > 0 else -np.inf
-                    if got > 0.0:
-                        n_c5 += 1
-                        stats[mv, 0] += got
-                        if acc[r] == 0.0:
-                            touched[0] += 1
-                            touched[touched[0]] = r
-                        acc[r] += got
-        longest = stats[mv, 1]
-        for m in range(1, touched[0] + 1):
-            r = touched[m]
-            longest = max(longest, acc[r])
-            acc[r] = 0.0
-        touched[0] = 0
-        stats[mv, 1] = longest
+                        n = count[r]
+                        if not cutting:
+                            got = 0.0
+                            for q in range(n):
+                                x0 = max(lo[base + q], ta)
+                                x1 = min(hi[base + q], tb)
+                                if x1 > x0:
+                                    got += x1 - x0
+                            n_c5 += 1 if got > 0.0 else 0
+                            overlap += got
+                            overlap_max = max(overlap_max, got)
+                            continue
+                        # the common subtractions written out here: a helper taking the
+                        # pool arrays costs two atomic reference-count updates per array
+                        # and call, more than the subtraction itself
+                        mid = move_ids[mv]
+                        i = 0
+                        while i < n and hi[base + i] <= ta:
+                            i += 1
+                        if i == n or lo[base + i] >= tb:
+                            continue
+                        j = i
+                        got = 0.0
+                        while j < n and lo[base + j] < tb:
+                            got += min(hi[base + j], tb) - max(lo[base + j], ta)
+                            j += 1
+                        left_lo = lo[base + i]
+                        left_lom = lom[base + i]
+                        right_hi = hi[base + j - 1]
+                        right_him = him[base + j - 1]
+                        keep_left = left_lo < ta - MIN_PIECE
+                        keep_right = right_hi > tb + MIN_PIECE
+                        delta = int(keep_left) + int(keep_right) - (j - i)
+                        if delta == 0 or (j == n and (delta < 0 or n < cap[r])):
+                            # nothing to shift: rewrite the met intervals in place
+                            w = base + i
+                            if keep_left:
+                                lo[w] = left_lo
+                                lom[w] = left_lom
+                                hi[w] = ta
+                                him[w] = mid
+                                w += 1
+                            if keep_right:
+                                lo[w] = tb
+                                lom[w] = mid
+                                hi[w] = right_hi
+                                him[w] = right_him
+                            count[r] = n + delta
+                        else:
+                            got = -1.0
+                        if got < 0.0:
+                            got = _subtract(lo, hi, lom, him, start, count, cap, used, r,
+                                            ta, tb, mid)
+                            if got < 0.0:
+                                _add_counts(counters, n_c0, n_c1, n_c2, n_c3, n_c4, n_c5)
+                                stats[mv, 0] += removed
+                                stats[mv, 2] += overlap
+                                stats[mv, 3] = max(stats[mv, 3], overlap_max)
+                                return band * n_moves + mv
+                            base = start[r]
+                        n = count[r]
+                        mat_lo[r] = lo[base] if n > 0 else np.inf
+                        mat_hi[r] = hi[base + n - 1] if n > 0 else -np.inf
+                        gap_lo[r] = hi[base] if n > 1 else np.inf
+                        gap_hi[r] = lo[base + 1] if n > 1 else -np.inf
+                        if got > 0.0:
+                            n_c5 += 1
+                            removed += got
+                            if acc[r] == 0.0:
+                                touched[0] += 1
+                                touched[touched[0]] = r
+                            acc[r] += got
+            stats[mv, 0] += removed
+            stats[mv, 2] += overlap
+            stats[mv, 3] = max(stats[mv, 3], overlap_max)
+            longest = stats[mv, 1]
+            for m in range(1, touched[0] + 1):
+                r = touched[m]
+                longest = max(longest, acc[r])
+                acc[r] = 0.0
+            touched[0] = 0
+            stats[mv, 1] = longest
     _add_counts(counters, n_c0, n_c1, n_c2, n_c3, n_c4, n_c5)
     return -1

@@ -22,6 +22,9 @@ from cam.verify.interval import (
     capsule_interval,
     capsule_row,
     endpoint_interval,
+    endpoint_row,
+    normal_interval,
+    normal_row,
     parallel_cylinder_interval,
     stadium_row,
 )
@@ -117,6 +120,29 @@ def test_end_pose_interval_matches_the_general_path(seed: int, short: bool, kind
     ok, ta, tb = endpoint_interval(*coeffs, prim[3], prim[4])
     if ok:
         _same((ta, tb), _reference(prim, coeffs))
+    if abs(coeffs[7]) > 1e-14:  # the vectorised row form (zu != 0) says the same
+        ok, ta, tb = _row_form(endpoint_row, prim, tip, move, axis, origin, int(kk[0]))
+        if ok:
+            _same((ta, tb), _reference(prim, coeffs))
+
+
+def _row_form(row_kernel, prim: np.ndarray, tip: np.ndarray, move: np.ndarray,  # type: ignore[no-untyped-def]
+              axis: np.ndarray, origin: np.ndarray, k: int) -> tuple[bool, float, float]:
+    """The row kernel's interval of one ray (the third ray of a row of five)."""
+    ia, ja = (k + 1) % 3, (k + 2) % 3
+    g = [ia, ja, k]
+    ag, dg = axis[g], move[g]
+    zu, zd = axis[k], float(axis @ move)
+    uu, ud = 1.0 - zu * zu, dg[2] - zu * zd
+    dd = float(dg @ dg) - zd * zd
+    alpha = prim[0]
+    out_a, out_b, out_ok = np.zeros(5), np.zeros(5), np.zeros(5, np.bool_)
+    h = 0.1
+    row_kernel(out_a, out_b, out_ok, 1, 4, origin[ja] - 2 * h, 1, h, origin[ia] - tip[ia],
+               tip[ja], -tip[k], ag[0], ag[1], ag[2], dg[0], dg[1], dg[2], zu, zd, prim[0],
+               prim[1], prim[2], uu + alpha * zu * zu, -ud - alpha * zu * zd,
+               dd + alpha * zd * zd, prim[3], prim[4])
+    return bool(out_ok[2]), float(out_a[2]), float(out_b[2])
 
 
 @settings(max_examples=300, deadline=None)
@@ -135,6 +161,40 @@ def test_ray_along_a_cylinder_axis(seed: int, short: bool, k: int, sign: float) 
     assert abs(qa) < 1e-12 and abs(qb) < 1e-12 and abs(qd) < 1e-12
     got = parallel_cylinder_interval(qc, qe, qf, zw, zu, zd, prim[3], prim[4])
     _same(got, _reference(prim, (qa, qb, qc, qd, qe, qf, zw, zu, zd)))
+
+
+@settings(max_examples=500, deadline=None)
+@given(seed=st.integers(0, 10**6), short=st.booleans(),
+       kind=st.sampled_from(sorted(PRIMITIVES)),
+       move_kind=st.sampled_from(["any", "along_ray", "along_axis", "normal_plane"]))
+def test_ray_normal_to_the_axis(seed: int, short: bool, kind: str, move_kind: str) -> None:
+    prim = PRIMITIVES[kind]
+    rng = np.random.default_rng(seed)
+    k = int(rng.integers(3))
+    axis = rng.normal(size=3)
+    if rng.random() < 0.5:
+        axis[(k + 1 + int(rng.integers(2))) % 3] = 0.0  # a world axis or a plane of two
+    axis[k] = 0.0
+    axis /= np.linalg.norm(axis)
+    tip = rng.uniform(-3.0, 3.0, 3)
+    move = {"any": rng.normal(size=3), "along_ray": np.eye(3)[k], "along_axis": axis,
+            "normal_plane": np.eye(3)[k] + rng.normal() * np.cross(axis, np.eye(3)[k])}[
+                move_kind]
+    move = move * (rng.uniform(1e-4, 0.05) if short else rng.uniform(0.0, 6.0)) / np.linalg.norm(
+        move)
+    origin = tip + rng.uniform(-4.0, 4.0, 3) + rng.uniform(0.0, 8.0) * axis
+    origin[k] = 0.0
+    coeffs = _coefficients(prim, tip, move, axis, origin, k)
+    qa, qb, qc, qd, qe, qf, zw, zu, zd = coeffs
+    assert zu == 0.0
+    ok, ta, tb = normal_interval(qa, qb, qc, qd, qe, qf, zw, zd, prim[3], prim[4], prim[0])
+    assert ok or prim[0] < 0.0  # only a cone may need the general path
+    if ok:
+        _same((ta, tb), _reference(prim, coeffs))
+    row_ok, row_a, row_b = _row_form(normal_row, prim, tip, move, axis, origin, k)
+    assert row_ok == ok
+    if row_ok:
+        _same((row_a, row_b), (ta, tb))
 
 
 @settings(max_examples=300, deadline=None)
@@ -295,3 +355,27 @@ def test_longest_cut_is_the_cutters_cut_along_one_ray() -> None:
     exact = 2.0 / 3.0 * math.pi * 8.0
     assert stats[0, 0] == pytest.approx(before - stock.volume(), rel=1e-12)
     assert stats[0, 0] == pytest.approx(exact, rel=5e-3)
+
+
+def test_a_pool_overflow_resumes_where_it_stopped() -> None:
+    # rows of 32 holes split the X rays through them 32 times: the pool overflows in
+    # the middle of a band of rows and grows; the result is the reference sweep's
+    shape = tool_shape(Tool(name="drill", number=1, shape="flat", diameter=0.4,
+                            corner_radius=0.0, flute_length=6.0, shank_diameter=0.4,
+                            stickout=9.0))
+    # (centres 0.05 mm off the rays: no ray grazes a hole, where round-off decides)
+    xs, ys = np.meshgrid(np.linspace(-9.25, 9.35, 32), [-6.05, -3.05, 0.05, 3.05, 6.05])
+    tips = np.column_stack([xs.ravel(), ys.ravel(), np.full(xs.size, 1.0)])
+    moves = np.tile([0.0, 0.0, -5.0], (xs.size, 1))
+    axes = np.tile([0.0, 0.0, 1.0], (xs.size, 1))
+    fast = Stock.box([-10.0, -8.0, -8.0], [10.0, 8.0, 0.0], 0.2)
+    slow = Stock.box([-10.0, -8.0, -8.0], [10.0, 8.0, 0.0], 0.2)
+    size = len(fast.grids[0].lo)
+    fast.sweep(tips, moves, axes, np.arange(len(tips), dtype=np.int32), shape)
+    assert len(fast.grids[0].lo) > size  # the X grid's pool grew
+    _reference_sweep(slow, tips, moves, axes, shape)
+    for got, want in zip(_intervals(fast), _intervals(slow), strict=True):
+        assert np.array_equal(got[0], want[0])
+        np.testing.assert_allclose(got[1], want[1], atol=TOL)
+        np.testing.assert_allclose(got[2], want[2], atol=TOL)
+        assert np.array_equal(got[3], want[3]) and np.array_equal(got[4], want[4])
