@@ -11,6 +11,12 @@ Writes into OUT/ (all or nothing, ``staged_directory``):
 * ``plots/<path>.png``: A and C angular displacement before and after smoothing
   (passage 0; the other passages are rotations of it and have the same curves);
 * ``scene.stl``: the collision meshes the postures were checked against.
+
+With ``stock`` (an in-process stock, e.g. the chain's verified ``verify/rough/
+stock.npz``), shank and holder also keep ``stock_clearance_mm`` from the stock
+material farther than ``clearance_mm - stock_clearance_mm`` from the design, and
+every path reports the cutter's engagement in it
+(``cam.finishing.stock_clearance``; finish.json ``stock``).
 """
 
 from __future__ import annotations
@@ -31,6 +37,12 @@ from cam.finishing.order import ordered_passes
 from cam.finishing.plan import FinishResult, plan_finishing
 from cam.finishing.plots import plot_angular_displacement
 from cam.finishing.scene import solid_meshes, surface_meshes
+from cam.finishing.stock_clearance import (
+    STOCK_ROLE,
+    StockScene,
+    engagement,
+    excess_voxels,
+)
 from cam.tools import Tool, resolve_tool
 from geometry.spec import load_spec
 from geometry.surfaces import ImpellerSurfaces, build_surfaces
@@ -98,9 +110,48 @@ def _check_links(scene: CollisionScene, tool: Tool, toolpath: Toolpath,
     return bad
 
 
+def _stock_scene(stock: str | Path, impeller: Any, design: CollisionScene,
+                 opts: FinishOptions) -> StockScene:
+    """The design scene with the stock's excess material (``stock_clearance``)."""
+    from cam.verify.deviation import DesignDistance
+    from cam.verify.sources import load_stock
+
+    # a .npz keeps its own resolution; a blank or mesh is cast at half a voxel
+    the_stock = load_stock(str(stock), 0.5 * opts.stock_voxel_mm)
+    mesh = impeller.mesh()
+    distance = DesignDistance(np.asarray(mesh.vertices, np.float64),
+                              np.asarray(mesh.faces, np.int64))
+    excess = excess_voxels(the_stock, distance, opts.clearance_mm - opts.stock_clearance_mm,
+                           opts.stock_voxel_mm)
+    return StockScene(design, excess)
+
+
+def _engagement(scene: StockScene, result: FinishResult, entries: list[dict[str, Any]]
+                ) -> dict[str, Any]:
+    """Per path ``stock_engagement`` in ``entries``; finish.json's ``stock`` entry."""
+    total = 0
+    deepest = -math.inf
+    for entry, path in zip(entries, result.paths, strict=True):
+        depth, over = engagement(scene.excess, result.tool, path.tip, path.axis)
+        found = depth[np.isfinite(depth)]
+        entry["stock_engagement"] = {
+            "max_depth_mm": round(float(found.max()), 4) if found.size else None,
+            "points_over": np.flatnonzero(over).tolist()}
+        total += int(over.sum())
+        deepest = max(deepest, float(found.max()) if found.size else -math.inf)
+    # the points are named in each path's interfering_points; here the paths whose
+    # final postures still touch the stock
+    stock_paths = [p.path.name for p in result.paths if STOCK_ROLE in p.interference.hit_role]
+    return {**scene.excess.summary(), "stock_clearance_mm": result.options.stock_clearance_mm,
+            "engaged_points_over": total,
+            "max_engagement_mm": round(deepest, 4) if math.isfinite(deepest) else None,
+            "paths_touching_stock": stock_paths}
+
+
 def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
                library: str | Path | None = None, scene: str = "solid", plots: bool = True,
-               progress: bool | None = None, **options: Any) -> dict[str, Any]:
+               progress: bool | None = None, stock: str | Path | None = None,
+               **options: Any) -> dict[str, Any]:
     """Five-axis finishing of an impeller: APT per operation, finish.json, plots.
 
     Parameters
@@ -123,6 +174,11 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         Write the angular displacement PNGs.
     progress : bool, optional
         Show a progress bar (default: when stderr is a terminal).
+    stock : str or Path, optional
+        The in-process stock (a verified ``stock.npz``, or anything ``impeller-cam
+        verify --stock`` takes: a spec's blank, a closed mesh): shank and holder
+        keep ``stock_clearance_mm`` from its material beyond ``clearance_mm -
+        stock_clearance_mm`` from the design (``scene="solid"`` only).
     **options
         Fields of ``FinishOptions`` (mm, deg).
 
@@ -149,6 +205,9 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         raise InputError("five-axis finishing needs a ball-end mill", field="-t",
                          value=the_tool.name, accepted="a tool of type 'ball'")
     kins = kinematics_for(load_machine(machine))
+    if stock is not None and scene != "solid":
+        raise InputError("an in-process stock needs the solid scene", field="--stock",
+                         value=str(stock), accepted="--scene solid (the default)")
     if scene == "solid":
         from geometry.impeller import Impeller
 
@@ -159,6 +218,8 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         surfaces = build_surfaces(load_spec(spec))
         meshes = surface_meshes(surfaces, SURFACE_MESH_SPACING)
     collision = CollisionScene(meshes)
+    if stock is not None:
+        collision = _stock_scene(stock, impeller, collision, opts)
     bar = progress_bar(progress)
     with bar if bar is not None else nullcontext():
         task = bar.add_task("finishing", total=None) if bar is not None else None
@@ -174,6 +235,8 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                            for op, (tp, air, _) in toolpaths.items()}
     summary = result.summary()
     entries = summary.pop("path_entries")
+    stock_entry = (_engagement(collision, result, entries)
+                   if isinstance(collision, StockScene) else None)
     with staged_directory(out) as stage:
         operations = {}
         for op, (toolpath, air, links) in toolpaths.items():
@@ -207,6 +270,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
             "tool": {"name": the_tool.name, "number": the_tool.number,
                      "diameter_mm": the_tool.diameter},
             "scene": scene,
+            "stock": None if stock is None else {"source": str(stock), **(stock_entry or {})},
             "options": opts.as_dict(),
             "paper": PAPER,
             "summary": summary,

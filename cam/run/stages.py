@@ -55,14 +55,11 @@ def geometry_stage(ctx: Context) -> None:
 
 
 #: Roughing options the chain sets unless the spec's ``[machining.rough]`` does.
-#: ``umr_layering``: the 3+2 plan's layers by milling depth leave cusps of up to
-#: 0.6 mm where eq. 2's steps are thin (the outlet), and finishing keeps its shank
-#: and holder only ``roughed_stock`` from the design; on nine_blade the depth layers
-#: made the finish programs verify with 73 shank events (up to 0.76 mm, the neck just
-#: above the flutes in the blank skin over the trailing edges' tip corners; eq. 2's
-#: layers: 0). Until finishing checks its shank against the verified rough stock the
-#: chain keeps eq. 2's layers (docs/run.md, session 9).
-CHAIN_ROUGH_DEFAULTS: dict[str, Any] = {"umr_layering": "ruling"}
+#: ``umr_layering``: the 3+2 plan's layers by milling depth (22 % shorter on nine_blade)
+#: leave up to 0.5 mm more in the trailing edges' tip corners than eq. 2's; finishing
+#: checks its shank and holder against the verified rough stock (``finish_stage``,
+#: cam/finishing/stock_clearance.py), so the chain takes the faster plan (docs/run.md).
+CHAIN_ROUGH_DEFAULTS: dict[str, Any] = {"umr_layering": "depth"}
 
 
 def rough_options(ctx: Context) -> dict[str, Any]:
@@ -99,30 +96,81 @@ def roughed_stock(ctx: Context) -> float:
 def finish_options(ctx: Context) -> dict[str, Any]:
     """The finishing options of the chain: shank and holder clear the roughed stock.
 
-    Finishing checks shank and holder against the design, but when it runs the part
-    still carries what roughing left (``roughed_stock``). The finishing setting
-    ``clearance_mm`` (default ``DEFAULT_TOLERANCES.clearance``) is therefore the
-    clearance from that stock: finishing is given ``clearance_mm + roughed_stock``
-    from the design (and ``clearance_exact_mm`` at least that).
+    When finishing runs the part still carries what roughing left. The finishing
+    setting ``clearance_mm`` (default ``DEFAULT_TOLERANCES.clearance``) is therefore the
+    clearance from that stock: finishing is given ``clearance_mm + roughed_stock`` from
+    the design (the material roughing is meant to leave, and ``clearance_exact_mm`` at
+    least that) and ``stock_clearance_mm = clearance_mm`` from the verified rough
+    stock's material beyond it (``finish_stage``).
     """
     from cam.finishing.options import FinishOptions
 
     options = dict(ctx.settings.finish)
     defaults = FinishOptions()
-    clearance = float(options.get("clearance_mm", defaults.clearance_mm)) \
-        + roughed_stock(ctx)
+    base = float(options.get("clearance_mm", defaults.clearance_mm))
+    clearance = base + roughed_stock(ctx)
+    options["stock_clearance_mm"] = base
     options["clearance_mm"] = clearance
     options["clearance_exact_mm"] = max(
         float(options.get("clearance_exact_mm", defaults.clearance_exact_mm)), clearance)
     return options
 
 
+#: Where the finish stage leaves the verified rough stock (``verify_rough``).
+ROUGH_VERIFY = "verify/rough"
+
+
+def verify_rough(ctx: Context) -> Path:
+    """Post and verify the rough programs on the blank; the verified stock's path.
+
+    The rough APT files are posted as the post stage will (same dialect and names,
+    into ``verify/rough/nc/``) and verified with the roughing tool on the spec's blank
+    at ``verify_resolution_mm``, allowance ``rough_allowance``, into
+    ``verify/rough/`` (replaced as a whole on success). The verify stage later runs
+    the same verification on the posted programs (the same stock: the sweep is
+    deterministic) and the finish programs from it.
+    """
+    import shutil
+    import tempfile
+
+    from cam.verify.command import VerifyOptions, run_verify
+    from impeller_cam.atomic import replace_path
+    from postproc.command import post_text
+    from postproc.machine import load_machine
+    from postproc.posts import get_post
+
+    dialect = get_post(ctx.settings.post or load_machine(ctx.machine).post)
+    rough = read_json(ctx, "rough/rough.json", "rough")
+    target = ctx.out / ROUGH_VERIFY
+    target.parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=".rough-staging-", dir=target.parent))
+    try:
+        programs = []
+        (stage / "nc").mkdir()
+        for op in rough["operations"]:
+            apt = ctx.out / "rough" / op["apt"]
+            nc = stage / "nc" / f"{Path(op['apt']).stem}.{dialect.extension}"
+            write_text_atomic(nc, post_text(apt, ctx.machine, post=dialect.name))
+            programs.append(nc)
+        run_verify(programs, ctx.machine, ctx.settings.rough_tool, str(ctx.spec), ctx.spec,
+                   ctx.settings.verify_resolution_mm, stage,
+                   options=VerifyOptions(allowance=rough_allowance(ctx),
+                                         render_each_program=False), progress=False)
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        raise
+    replace_path(stage, target)
+    return target / "stock.npz"
+
+
 def finish_stage(ctx: Context) -> None:
-    """Five-axis finishing (``run_finish``) with the finishing tool (``finish_options``)."""
+    """The rough programs verified (``verify_rough``), then five-axis finishing
+    (``run_finish``) with the finishing tool (``finish_options``) against that stock."""
     from cam.finishing.command import run_finish
 
+    stock = verify_rough(ctx)
     run_finish(ctx.spec, ctx.machine, ctx.settings.finish_tool, ctx.out / "finish",
-               progress=False, **finish_options(ctx))
+               progress=False, stock=stock, **finish_options(ctx))
 
 
 def apt_files(ctx: Context) -> list[tuple[str, str, str]]:
