@@ -65,6 +65,18 @@ def finish_command(
         int | None, typer.Option(help="Finish only the first N passages (default: all).")
     ] = None,
     plots: Annotated[bool, typer.Option(help="Write the A/C displacement plots.")] = True,
+    stock: Annotated[
+        str | None,
+        typer.Option(help="In-process stock: a verified stock.npz (or a spec's blank, a "
+                     "closed mesh); shank and holder keep --stock-clearance from its "
+                     "material beyond --clearance minus that from the design."),
+    ] = None,
+    clearance: Annotated[
+        float, typer.Option(help="Clearance of shank and holder from the design, mm.")
+    ] = 0.5,
+    stock_clearance: Annotated[
+        float, typer.Option(help="Clearance of shank and holder from the --stock, mm.")
+    ] = 0.5,
 ) -> None:
     """Five-axis finishing: APT per operation, finish.json, A/C displacement plots."""
     from cam.finishing.command import run_finish
@@ -75,9 +87,13 @@ def finish_command(
         tool,
         out,
         plots=plots,
+        stock=stock,
         scallop_mm=scallop,
         point_spacing_mm=spacing,
         passages=passages,
+        clearance_mm=clearance,
+        clearance_exact_mm=max(clearance, 3.0),
+        stock_clearance_mm=stock_clearance,
     )
 
 

@@ -134,6 +134,8 @@ class StockExcess:
         Material meant to remain (the design clearance's share of it), mm.
     skin_voxels : int
         Skin voxels examined.
+    stock_volume : float
+        Material volume of the stock they come from, mm^3 (``Stock.volume``).
     """
 
     index: NDArray[np.int64]
@@ -142,6 +144,7 @@ class StockExcess:
     depth: Array
     offset: float
     skin_voxels: int
+    stock_volume: float = math.nan
 
     @property
     def centres(self) -> Array:
@@ -151,6 +154,7 @@ class StockExcess:
     def summary(self) -> dict[str, Any]:
         """finish.json's ``stock`` entry (mm)."""
         return {"voxel_mm": self.pitch, "offset_mm": self.offset,
+                "stock_volume_mm3": round(self.stock_volume, 3),
                 "skin_voxels": self.skin_voxels, "excess_voxels": len(self.index),
                 "max_depth_mm": round(float(self.depth.max()), 4) if len(self.depth)
                 else None}
@@ -178,7 +182,7 @@ def excess_voxels(stock: Stock, distance: DesignDistance, offset: float,
     depth = distance(centres)
     keep = depth > offset - 0.5 * math.sqrt(3.0) * pitch
     return StockExcess(np.asarray(skin[keep], np.int64), origin, float(pitch),
-                       np.asarray(depth[keep]), float(offset), len(skin))
+                       np.asarray(depth[keep]), float(offset), len(skin), stock.volume())
 
 
 def voxel_mesh(index: NDArray[np.int64], origin: Array, pitch: float) -> trimesh.Trimesh:

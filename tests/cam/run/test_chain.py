@@ -139,16 +139,35 @@ def test_finishing_shank_and_holder_clear_the_stock_roughing_left(chain_small: P
     assert counts["holder_collision"] == 0 and counts["rapid_in_stock"] == 0, counts
 
 
-def test_the_chain_roughs_in_eq2_layers_unless_the_spec_says(chain_small: Path) -> None:
-    """The chain's default ``umr_layering = "ruling"`` (``stages.CHAIN_ROUGH_DEFAULTS``:
-    finishing assumes the stock eq. 2's layers leave); a spec or override wins."""
+def test_the_chain_roughs_in_depth_layers_unless_the_spec_says(chain_small: Path) -> None:
+    """The chain's default ``umr_layering = "depth"`` (``stages.CHAIN_ROUGH_DEFAULTS``:
+    finishing checks the stock the layers really leave); a spec or override wins."""
     from cam.run.settings import resolve_settings
     from cam.run.stages import Context, rough_options
 
-    assert load(chain_small, "rough/rough.json")["options"]["umr_layering"] == "ruling"
+    assert load(chain_small, "rough/rough.json")["options"]["umr_layering"] == "depth"
     ctx = Context(SMALL_SPEC, CHAIN_MACHINE, chain_small,
-                  resolve_settings(SMALL_SPEC, rough={"umr_layering": "depth"}))
-    assert rough_options(ctx)["umr_layering"] == "depth"
+                  resolve_settings(SMALL_SPEC, rough={"umr_layering": "ruling"}))
+    assert rough_options(ctx)["umr_layering"] == "ruling"
+
+
+def test_finishing_plans_against_the_verified_rough_stock(chain_small: Path) -> None:
+    """Issue 18: the finish stage verifies the rough programs first and plans against
+    that stock (the one the verify stage finishes from: equal volumes); shank and
+    holder keep 0.5 mm from its material beyond the 1.3 mm roughing is meant to leave,
+    no path is left touching it, and the cutter's engagement is reported per path."""
+    finish = load(chain_small, "finish/finish.json")
+    stock = finish["stock"]
+    assert stock["source"].endswith("verify/rough/stock.npz")
+    rough = load(chain_small, "verify/rough/verify.json")
+    assert stock["stock_volume_mm3"] == pytest.approx(rough["remaining_volume_mm3"], abs=1e-3)
+    assert stock["offset_mm"] == pytest.approx(0.3 + CHAIN_SETTINGS["rough"]["scallop_mm"])
+    assert finish["options"]["stock_clearance_mm"] == pytest.approx(0.5)
+    assert stock["paths_touching_stock"] == []
+    for entry in finish["paths"]:
+        assert set(entry["stock_engagement"]) == {"max_depth_mm", "points_over"}
+    assert stock["engaged_points_over"] == sum(len(e["stock_engagement"]["points_over"])
+                                               for e in finish["paths"])
 
 
 def test_verification_finds_no_holder_collision_and_no_rapid_in_stock(chain_small: Path
