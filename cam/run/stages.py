@@ -126,7 +126,7 @@ def verify_rough(ctx: Context) -> Path:
     The rough APT files are posted as the post stage will (same dialect and names,
     into ``verify/rough/nc/``) and verified with the roughing tool on the spec's blank
     at ``verify_resolution_mm``, allowance ``rough_allowance``, into
-    ``verify/rough/`` (replaced as a whole on success). The verify stage later runs
+    ``verify/rough/`` (replaced as a whole on success; no PNG renders). The verify stage later runs
     the same verification on the posted programs (the same stock: the sweep is
     deterministic) and the finish programs from it.
     """
@@ -154,8 +154,9 @@ def verify_rough(ctx: Context) -> Path:
             programs.append(nc)
         run_verify(programs, ctx.machine, ctx.settings.rough_tool, str(ctx.spec), ctx.spec,
                    ctx.settings.verify_resolution_mm, stage,
-                   options=VerifyOptions(allowance=rough_allowance(ctx),
-                                         render_each_program=False), progress=False)
+                   # no renders: the verify stage writes this folder again with them
+                   options=VerifyOptions(allowance=rough_allowance(ctx), render=False),
+                   progress=False)
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)
         raise
