@@ -42,6 +42,7 @@ from cam.finishing.stock_clearance import (
     StockScene,
     engagement,
     excess_voxels,
+    stock_blocked,
 )
 from cam.tools import Tool, resolve_tool
 from geometry.spec import load_spec
@@ -131,21 +132,29 @@ def _engagement(scene: StockScene, result: FinishResult, entries: list[dict[str,
     """Per path ``stock_engagement`` in ``entries``; finish.json's ``stock`` entry."""
     total = 0
     deepest = -math.inf
+    blocked_paths = []
+    options = result.options
     for entry, path in zip(entries, result.paths, strict=True):
         depth, over = engagement(scene.excess, result.tool, path.tip, path.axis)
         found = depth[np.isfinite(depth)]
+        # of the postures still interfering, those the stock blocks (contact, or
+        # shank/holder closer than stock_clearance_mm to it)
+        bad = path.interference.interfering_points
+        blocked = bad[stock_blocked(scene, result.tool, path.tip[bad], path.axis[bad],
+                                    options.cutter_allowance_mm,
+                                    options.stock_clearance_mm)]
         entry["stock_engagement"] = {
             "max_depth_mm": round(float(found.max()), 4) if found.size else None,
             "points_over": np.flatnonzero(over).tolist()}
+        entry["stock_blocked_points"] = blocked.tolist()
+        if blocked.size or STOCK_ROLE in path.interference.hit_role:
+            blocked_paths.append(path.path.name)
         total += int(over.sum())
         deepest = max(deepest, float(found.max()) if found.size else -math.inf)
-    # the points are named in each path's interfering_points; here the paths whose
-    # final postures still touch the stock
-    stock_paths = [p.path.name for p in result.paths if STOCK_ROLE in p.interference.hit_role]
     return {**scene.excess.summary(), "stock_clearance_mm": result.options.stock_clearance_mm,
             "engaged_points_over": total,
             "max_engagement_mm": round(deepest, 4) if math.isfinite(deepest) else None,
-            "paths_touching_stock": stock_paths}
+            "paths_blocked_by_stock": blocked_paths}
 
 
 def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,

@@ -56,7 +56,7 @@ if TYPE_CHECKING:
     from cam.verify.stock import Stock
 
 __all__ = ["STOCK_ROLE", "StockExcess", "StockScene", "engagement", "excess_voxels",
-           "voxel_mesh"]
+           "stock_blocked", "voxel_mesh"]
 
 Array = NDArray[np.float64]
 #: Role name of the excess stock in reports (``PostureReport.hit_role``).
@@ -317,6 +317,26 @@ class StockScene(CollisionScene):
             "check_motion", tool, tip, axis, parts, cutter_allowance, clearance,
             clearance_cap, clearance_limits,
             {"max_step_mm": max_step_mm, "max_step_deg": max_step_deg}))
+
+
+def stock_blocked(scene: StockScene, tool: Tool, tip: Array, axis: Array,
+                  cutter_allowance: float, clearance: float) -> NDArray[np.bool_]:
+    """Postures whose shank or holder touch the excess stock or come closer to it than
+    ``clearance`` (mm): which of a path's interfering postures the stock blocks.
+
+    Parameters
+    ----------
+    tip, axis : (n, 3) float64
+        Postures, mm and unit axes.
+    """
+    if scene.stock is None or not len(tip):
+        return np.zeros(len(tip), dtype=bool)
+    report = scene.stock.check_postures(tool, tip, axis, parts=("shank", "holder"),
+                                        cutter_allowance=cutter_allowance,
+                                        clearance_cap=clearance,
+                                        clearance_limits=(clearance,))
+    clear = np.asarray(report.clearance, dtype=np.float64)
+    return np.asarray(report.collides, dtype=bool) | (np.isfinite(clear) & (clear < clearance))
 
 
 def engagement(excess: StockExcess, tool: Tool, tip: Array, axis: Array

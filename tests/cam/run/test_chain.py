@@ -163,7 +163,7 @@ def test_finishing_plans_against_the_verified_rough_stock(chain_small: Path) -> 
     assert stock["stock_volume_mm3"] == pytest.approx(rough["remaining_volume_mm3"], abs=1e-3)
     assert stock["offset_mm"] == pytest.approx(0.3 + CHAIN_SETTINGS["rough"]["scallop_mm"])
     assert finish["options"]["stock_clearance_mm"] == pytest.approx(0.5)
-    assert stock["paths_touching_stock"] == []
+    assert stock["paths_blocked_by_stock"] == []
     for entry in finish["paths"]:
         assert set(entry["stock_engagement"]) == {"max_depth_mm", "points_over"}
     assert stock["engaged_points_over"] == sum(len(e["stock_engagement"]["points_over"])

@@ -35,7 +35,7 @@ def check_chain(out: Path) -> None:
     assert load("rough/rough.json")["options"]["umr_layering"] == "depth"
     finish = load("finish/finish.json")
     assert finish["stock"]["source"].endswith("verify/rough/stock.npz")
-    assert finish["stock"]["paths_touching_stock"] == []
+    assert finish["stock"]["paths_blocked_by_stock"] == []
     counts = load("verify/finish/verify.json")["event_counts"]
     for kind in ("holder_collision", "gouge", "overtravel", "rapid_in_stock"):
         assert counts[kind] == 0, (kind, counts)
