@@ -31,6 +31,7 @@ from cam.finishing.stock_clearance import (
     StockScene,
     engagement,
     excess_voxels,
+    stock_blocked,
     voxel_mesh,
 )
 from cam.tools import resolve_tool
@@ -102,6 +103,8 @@ def test_stock_clearance_and_rapids_against_a_block() -> None:
     # the shank (from 10 mm above the tip, radius 2.0-2.2 mm beside the block) is
     # 0.3-0.5 mm from the block's side at x = 2.5
     assert 0.2 < both.clearance[0] - 2.0 < 0.6
+    assert stock_blocked(scene, tool, tip, axis, 0.05, 0.7)[0]
+    assert not stock_blocked(scene, tool, tip, axis, 0.05, 0.1)[0]
     assert not both.collides[0]
     # a rapid's cutter grown by 2.5 mm (0.5 mm beyond the offset) is blocked by the stock
     through = np.array([[3.0, 0.0, 4.0]])  # the cutter crosses the block's side
