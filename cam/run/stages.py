@@ -116,58 +116,11 @@ def finish_options(ctx: Context) -> dict[str, Any]:
     return options
 
 
-#: Where the finish stage leaves the verified rough stock (``verify_rough``).
-ROUGH_VERIFY = "verify/rough"
-
-
-def verify_rough(ctx: Context) -> Path:
-    """Post and verify the rough programs on the blank; the verified stock's path.
-
-    The rough APT files are posted as the post stage will (same dialect and names,
-    into ``verify/rough/nc/``) and verified with the roughing tool on the spec's blank
-    at ``verify_resolution_mm``, allowance ``rough_allowance``, into
-    ``verify/rough/`` (replaced as a whole on success; no PNG renders). The verify stage later runs
-    the same verification on the posted programs (the same stock: the sweep is
-    deterministic) and the finish programs from it.
-    """
-    import shutil
-    import tempfile
-
-    from cam.verify.command import VerifyOptions, run_verify
-    from impeller_cam.atomic import replace_path
-    from postproc.command import post_text
-    from postproc.machine import load_machine
-    from postproc.posts import get_post
-
-    dialect = get_post(ctx.settings.post or load_machine(ctx.machine).post)
-    rough = read_json(ctx, "rough/rough.json", "rough")
-    target = ctx.out / ROUGH_VERIFY
-    target.parent.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=".rough-staging-", dir=target.parent))
-    try:
-        programs = []
-        (stage / "nc").mkdir()
-        for op in rough["operations"]:
-            apt = ctx.out / "rough" / op["apt"]
-            nc = stage / "nc" / f"{Path(op['apt']).stem}.{dialect.extension}"
-            write_text_atomic(nc, post_text(apt, ctx.machine, post=dialect.name))
-            programs.append(nc)
-        run_verify(programs, ctx.machine, ctx.settings.rough_tool, str(ctx.spec), ctx.spec,
-                   ctx.settings.verify_resolution_mm, stage,
-                   # no renders: the verify stage writes this folder again with them
-                   options=VerifyOptions(allowance=rough_allowance(ctx), render=False),
-                   progress=False)
-    except BaseException:
-        shutil.rmtree(stage, ignore_errors=True)
-        raise
-    replace_path(stage, target)
-    return target / "stock.npz"
-
-
 def finish_stage(ctx: Context) -> None:
     """The rough programs verified (``verify_rough``), then five-axis finishing
     (``run_finish``) with the finishing tool (``finish_options``) against that stock."""
     from cam.finishing.command import run_finish
+    from cam.run.rough_stock import verify_rough
 
     stock = verify_rough(ctx)
     run_finish(ctx.spec, ctx.machine, ctx.settings.finish_tool, ctx.out / "finish",

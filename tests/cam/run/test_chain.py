@@ -292,3 +292,36 @@ def test_rerun_of_verify_replaces_its_nested_folder(chain_small: Path, tmp_path:
     assert load(out, "verify/finish/verify.json")["stock"] == str(
         out / "verify" / "rough" / "stock.npz")
     assert not [p for p in out.iterdir() if p.name.startswith(".")]
+
+
+def test_the_verify_stage_reuses_the_finish_stage_rough_run_only_when_it_matches(
+        chain_small: Path, tmp_path: Path) -> None:
+    """``rough_stock.reusable_rough``: the finish stage's rough verification stands for
+    the verify stage's only when it verified the very programs the post stage wrote,
+    with the same tool, resolution and allowance."""
+    import shutil
+
+    from cam.run.rough_stock import reusable_rough
+    from cam.run.settings import resolve_settings
+    from cam.run.stages import Context
+
+    out = tmp_path / "out"
+    for relative in ("rough/rough.json", "nc/post.json", "verify/rough/verify.json",
+                     "verify/rough/stock.npz"):
+        (out / relative).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(chain_small / relative, out / relative)
+    programs = [p["nc"] for p in load(chain_small, "nc/post.json")["programs"]
+                if p["operation"] == "rough"]
+    (out / "verify/rough/nc").mkdir()
+    for nc in programs:
+        shutil.copy(chain_small / nc, out / nc)
+        shutil.copy(chain_small / nc, out / "verify/rough/nc" / Path(nc).name)
+    settings = {k: v for k, v in CHAIN_SETTINGS.items()}
+    ctx = Context(SMALL_SPEC, CHAIN_MACHINE, out, resolve_settings(SMALL_SPEC, **settings))
+    assert reusable_rough(ctx) == out / "verify/rough"
+    other = Context(SMALL_SPEC, CHAIN_MACHINE, out, resolve_settings(
+        SMALL_SPEC, **{**settings, "verify_resolution_mm": 0.5}))
+    assert reusable_rough(other) is None
+    with open(out / programs[0], "a") as handle:
+        handle.write("(changed)\n")
+    assert reusable_rough(ctx) is None
