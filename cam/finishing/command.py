@@ -25,7 +25,7 @@ import json
 import math
 from contextlib import nullcontext
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import trimesh
@@ -53,6 +53,9 @@ from impeller_cam.progress import progress_bar
 from postproc.apt import write_apt
 from postproc.kinematics import Kinematics
 from postproc.toolpath import Cutter, Toolpath
+
+if TYPE_CHECKING:
+    from cam.verify.stock import Stock
 
 __all__ = ["SCENE_SOURCES", "finish_toolpaths", "run_finish"]
 
@@ -111,14 +114,11 @@ def _check_links(scene: CollisionScene, tool: Tool, toolpath: Toolpath,
     return bad
 
 
-def _stock_scene(stock: str | Path, impeller: Any, design: CollisionScene,
+def _stock_scene(the_stock: Stock, impeller: Any, design: CollisionScene,
                  opts: FinishOptions) -> StockScene:
     """The design scene with the stock's excess material (``stock_clearance``)."""
     from cam.verify.deviation import DesignDistance
-    from cam.verify.sources import load_stock
 
-    # a .npz keeps its own resolution; a blank or mesh is cast at half a voxel
-    the_stock = load_stock(str(stock), 0.5 * opts.stock_voxel_mm)
     mesh = impeller.mesh()
     distance = DesignDistance(np.asarray(mesh.vertices, np.float64),
                               np.asarray(mesh.faces, np.int64))
@@ -214,9 +214,15 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         raise InputError("five-axis finishing needs a ball-end mill", field="-t",
                          value=the_tool.name, accepted="a tool of type 'ball'")
     kins = kinematics_for(load_machine(machine))
-    if stock is not None and scene != "solid":
-        raise InputError("an in-process stock needs the solid scene", field="--stock",
-                         value=str(stock), accepted="--scene solid (the default)")
+    the_stock = None
+    if stock is not None:
+        if scene != "solid":
+            raise InputError("an in-process stock needs the solid scene", field="--stock",
+                             value=str(stock), accepted="--scene solid (the default)")
+        from cam.verify.sources import load_stock
+
+        # a .npz keeps its own resolution; a blank or mesh is cast at half a voxel
+        the_stock = load_stock(str(stock), 0.5 * opts.stock_voxel_mm)
     if scene == "solid":
         from geometry.impeller import Impeller
 
@@ -227,8 +233,8 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         surfaces = build_surfaces(load_spec(spec))
         meshes = surface_meshes(surfaces, SURFACE_MESH_SPACING)
     collision = CollisionScene(meshes)
-    if stock is not None:
-        collision = _stock_scene(stock, impeller, collision, opts)
+    if the_stock is not None:
+        collision = _stock_scene(the_stock, impeller, collision, opts)
     bar = progress_bar(progress)
     with bar if bar is not None else nullcontext():
         task = bar.add_task("finishing", total=None) if bar is not None else None

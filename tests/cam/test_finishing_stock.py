@@ -236,3 +236,19 @@ def test_stock_options_are_checked() -> None:
     with pytest.raises(InputError, match="stock_voxel_mm"):
         FinishOptions(stock_voxel_mm=0.0)
     assert replace(FinishOptions(), clearance_mm=2.0, stock_clearance_mm=0.5)
+
+
+def test_a_missing_stock_is_bad_input_before_any_output(tmp_path: Path) -> None:
+    from cam.finishing.command import run_finish
+    from impeller_cam.errors import InputError
+
+    out = tmp_path / "out"
+    with pytest.raises(InputError, match="stock not found") as error:
+        run_finish(SMALL, MACHINE, "ball4_taper", out, stock=tmp_path / "none.npz",
+                   progress=False)
+    assert "--stock" in str(error.value)
+    assert not out.exists()
+    with pytest.raises(InputError, match="solid scene"):
+        run_finish(SMALL, MACHINE, "ball4_taper", out, stock=tmp_path / "none.npz",
+                   scene="surfaces", progress=False)
+    assert not out.exists()
