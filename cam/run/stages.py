@@ -100,8 +100,8 @@ def finish_options(ctx: Context) -> dict[str, Any]:
     setting ``clearance_mm`` (default ``DEFAULT_TOLERANCES.clearance``) is therefore the
     clearance from that stock: finishing is given ``clearance_mm + roughed_stock`` from
     the design (the material roughing is meant to leave, and ``clearance_exact_mm`` at
-    least that) and ``stock_clearance_mm = clearance_mm`` from the verified rough
-    stock's material beyond it (``finish_stage``).
+    least that) and ``stock_clearance_mm`` (default: ``clearance_mm``) from the verified
+    rough stock's material beyond it (``finish_stage``).
     """
     from cam.finishing.options import FinishOptions
 
@@ -109,7 +109,7 @@ def finish_options(ctx: Context) -> dict[str, Any]:
     defaults = FinishOptions()
     base = float(options.get("clearance_mm", defaults.clearance_mm))
     clearance = base + roughed_stock(ctx)
-    options["stock_clearance_mm"] = base
+    options["stock_clearance_mm"] = float(options.get("stock_clearance_mm", base))
     options["clearance_mm"] = clearance
     options["clearance_exact_mm"] = max(
         float(options.get("clearance_exact_mm", defaults.clearance_exact_mm)), clearance)
