@@ -74,6 +74,18 @@ def finish_command(
         str | None, typer.Option("--fillet-tool", help="Ball no larger than the fillet: "
                                  "also finish the fillets (finish_fillet.apt).")
     ] = None,
+    stock: Annotated[
+        str | None,
+        typer.Option(help="In-process stock: a verified stock.npz (or a spec's blank, a "
+                     "closed mesh); shank and holder keep --stock-clearance from its "
+                     "material beyond --clearance minus that from the design."),
+    ] = None,
+    clearance: Annotated[
+        float, typer.Option(help="Clearance of shank and holder from the design, mm.")
+    ] = 0.5,
+    stock_clearance: Annotated[
+        float, typer.Option(help="Clearance of shank and holder from the --stock, mm.")
+    ] = 0.5,
 ) -> None:
     """Five-axis finishing: APT per operation, finish.json, A/C displacement plots."""
     from cam.finishing.command import run_finish
@@ -85,10 +97,14 @@ def finish_command(
         out,
         plots=plots,
         fillet_tool=fillet_tool,
+        stock=stock,
         scallop_mm=scallop,
         point_spacing_mm=spacing,
         chordal_tolerance_mm=chordal_tol,
         passages=passages,
+        clearance_mm=clearance,
+        clearance_exact_mm=max(clearance, 3.0),
+        stock_clearance_mm=stock_clearance,
     )
 
 

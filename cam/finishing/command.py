@@ -13,6 +13,12 @@ Writes into OUT/ (all or nothing, ``staged_directory``):
 * ``plots/<path>.png``: A and C angular displacement before and after smoothing
   (passage 0; the other passages are rotations of it and have the same curves);
 * ``scene.stl``: the collision meshes the postures were checked against.
+
+With ``stock`` (an in-process stock, e.g. the chain's verified ``verify/rough/
+stock.npz``), shank and holder also keep ``stock_clearance_mm`` from the stock
+material farther than ``clearance_mm - stock_clearance_mm`` from the design, and
+every path reports the cutter's engagement in it
+(``cam.finishing.stock_clearance``; finish.json ``stock``).
 """
 
 from __future__ import annotations
@@ -21,7 +27,7 @@ import json
 import math
 from contextlib import nullcontext
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import trimesh
@@ -34,6 +40,13 @@ from cam.finishing.order import ordered_passes
 from cam.finishing.plan import FinishResult, plan_finishing
 from cam.finishing.plots import plot_angular_displacement
 from cam.finishing.scene import solid_meshes, surface_meshes
+from cam.finishing.stock_clearance import (
+    STOCK_ROLE,
+    StockScene,
+    engagement,
+    excess_voxels,
+    stock_blocked,
+)
 from cam.tools import Tool, resolve_tool
 from geometry.spec import load_spec
 from geometry.surfaces import ImpellerSurfaces, build_surfaces
@@ -43,6 +56,9 @@ from impeller_cam.progress import progress_bar
 from postproc.apt import write_apt
 from postproc.kinematics import Kinematics
 from postproc.toolpath import Cutter, Toolpath
+
+if TYPE_CHECKING:
+    from cam.verify.stock import Stock
 
 __all__ = ["SCENE_SOURCES", "finish_toolpaths", "run_finish"]
 
@@ -106,9 +122,53 @@ def _check_links(scene: CollisionScene, tool: Tool, toolpath: Toolpath,
     return bad
 
 
+def _stock_scene(the_stock: Stock, impeller: Any, design: CollisionScene,
+                 opts: FinishOptions) -> StockScene:
+    """The design scene with the stock's excess material (``stock_clearance``)."""
+    from cam.verify.deviation import DesignDistance
+
+    mesh = impeller.mesh()
+    distance = DesignDistance(np.asarray(mesh.vertices, np.float64),
+                              np.asarray(mesh.faces, np.int64))
+    excess = excess_voxels(the_stock, distance, opts.clearance_mm - opts.stock_clearance_mm,
+                           opts.stock_voxel_mm)
+    return StockScene(design, excess)
+
+
+def _engagement(scene: StockScene, result: FinishResult, entries: list[dict[str, Any]]
+                ) -> dict[str, Any]:
+    """Per path ``stock_engagement`` in ``entries``; finish.json's ``stock`` entry."""
+    total = 0
+    deepest = -math.inf
+    blocked_paths = []
+    options = result.options
+    for entry, path in zip(entries, result.paths, strict=True):
+        depth, over = engagement(scene.excess, result.tool, path.tip, path.axis)
+        found = depth[np.isfinite(depth)]
+        # of the postures still interfering, those the stock blocks (contact, or
+        # shank/holder closer than stock_clearance_mm to it)
+        bad = path.interference.interfering_points
+        blocked = bad[stock_blocked(scene, result.tool, path.tip[bad], path.axis[bad],
+                                    options.cutter_allowance_mm,
+                                    options.stock_clearance_mm)]
+        entry["stock_engagement"] = {
+            "max_depth_mm": round(float(found.max()), 4) if found.size else None,
+            "points_over": np.flatnonzero(over).tolist()}
+        entry["stock_blocked_points"] = blocked.tolist()
+        if blocked.size or STOCK_ROLE in path.interference.hit_role:
+            blocked_paths.append(path.path.name)
+        total += int(over.sum())
+        deepest = max(deepest, float(found.max()) if found.size else -math.inf)
+    return {**scene.excess.summary(), "stock_clearance_mm": result.options.stock_clearance_mm,
+            "engaged_points_over": total,
+            "max_engagement_mm": round(deepest, 4) if math.isfinite(deepest) else None,
+            "paths_blocked_by_stock": blocked_paths}
+
+
 def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
                library: str | Path | None = None, scene: str = "solid", plots: bool = True,
                progress: bool | None = None, fillet_tool: str | None = None,
+               stock: str | Path | None = None,
                **options: Any) -> dict[str, Any]:
     """Five-axis finishing of an impeller: APT per operation, finish.json, plots.
 
@@ -135,6 +195,11 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
     fillet_tool : str, optional
         Ball-end mill (radius at most the fillet radius) of the fillet pencil
         passes, operation ``fillet`` (default: no fillet operation).
+    stock : str or Path, optional
+        The in-process stock (a verified ``stock.npz``, or anything ``impeller-cam
+        verify --stock`` takes: a spec's blank, a closed mesh): shank and holder
+        keep ``stock_clearance_mm`` from its material beyond ``clearance_mm -
+        stock_clearance_mm`` from the design (``scene="solid"`` only).
     **options
         Fields of ``FinishOptions`` (mm, deg).
 
@@ -165,6 +230,15 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
     fillet = None if fillet_tool is None else resolve_tool(fillet_tool, library)
     if fillet is not None:
         check_fillet_tool(fillet, float(the_spec.fillet_radius))
+    the_stock = None
+    if stock is not None:
+        if scene != "solid":
+            raise InputError("an in-process stock needs the solid scene", field="--stock",
+                             value=str(stock), accepted="--scene solid (the default)")
+        from cam.verify.sources import load_stock
+
+        # a .npz keeps its own resolution; a blank or mesh is cast at half a voxel
+        the_stock = load_stock(str(stock), 0.5 * opts.stock_voxel_mm)
     if scene == "solid":
         from geometry.impeller import Impeller
 
@@ -175,6 +249,8 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         surfaces = build_surfaces(the_spec)
         meshes = surface_meshes(surfaces, SURFACE_MESH_SPACING)
     collision = CollisionScene(meshes)
+    if the_stock is not None:
+        collision = _stock_scene(the_stock, impeller, collision, opts)
     bar = progress_bar(progress)
     with bar if bar is not None else nullcontext():
         task = bar.add_task("finishing", total=None) if bar is not None else None
@@ -203,6 +279,8 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                            for op, (tp, air, _) in toolpaths.items()}
     summary = result.summary()
     entries = summary.pop("path_entries")
+    stock_entry = (_engagement(collision, result, entries)
+                   if isinstance(collision, StockScene) else None)
     with staged_directory(out) as stage:
         operations = {}
         for op, (toolpath, air, links) in toolpaths.items():
@@ -236,6 +314,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
             "machine": str(machine),
             "tool": _tool_entry(the_tool),
             "scene": scene,
+            "stock": None if stock is None else {"source": str(stock), **(stock_entry or {})},
             "options": opts.as_dict(),
             "paper": PAPER,
             "summary": summary,

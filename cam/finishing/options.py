@@ -97,6 +97,14 @@ class FinishOptions:
         it cuts (must exceed the scene tessellation error), mm.
     clearance_mm : float
         Required clearance of shank and holder from the part, mm.
+    stock_clearance_mm : float
+        With an in-process stock (``run_finish(stock=...)``): clearance of shank and
+        holder from the stock material farther than ``clearance_mm -
+        stock_clearance_mm`` from the design (the rest is covered by ``clearance_mm``
+        from the design), mm (cam/finishing/stock_clearance.py).
+    stock_voxel_mm : float
+        Voxel edge of the stock's collision mesh, mm (the clearance from it is
+        conservative by at most a voxel diagonal).
     clearance_exact_mm : float
         Posture clearances up to this are exact (fcl distance); larger ones are
         reported as a guaranteed lower bound (at least this), which saves most
@@ -154,6 +162,8 @@ class FinishOptions:
     repair_rounds: int = 6
     cutter_allowance_mm: float = 0.05
     clearance_mm: float = DEFAULT_TOLERANCES.clearance
+    stock_clearance_mm: float = DEFAULT_TOLERANCES.clearance
+    stock_voxel_mm: float = 0.5
     clearance_exact_mm: float = 3.0
     motion_step_mm: float = 0.5
     motion_step_deg: float = 0.5
@@ -174,14 +184,14 @@ class FinishOptions:
                     "linear_deadband_mm", "delta_c_deg", "tilt_search_deg",
                     "tilt_search_step_deg", "repair_blend_mm", "motion_step_mm",
                     "motion_step_deg", "retract_clearance_mm", "link_step_deg", "departure_mm",
-                    "tessellation_mm")
+                    "tessellation_mm", "stock_voxel_mm")
         for name in positive:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise InputError("must be a positive number", field=name, value=value,
                                  accepted="a finite number > 0")
         for name in ("c_tilt_deg", "cutter_allowance_mm", "clearance_mm", "repair_margin_mm",
-                     "feed_link_mm"):
+                     "feed_link_mm", "stock_clearance_mm"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
                 raise InputError("must be a number >= 0", field=name, value=value,
@@ -196,6 +206,10 @@ class FinishOptions:
             raise InputError("must be at least clearance_mm", field="clearance_exact_mm",
                              value=self.clearance_exact_mm,
                              accepted=f">= {self.clearance_mm:g} mm")
+        if not self.stock_clearance_mm <= self.clearance_mm:
+            raise InputError("must be at most clearance_mm (the clearance from the design)",
+                             field="stock_clearance_mm", value=self.stock_clearance_mm,
+                             accepted=f"<= {self.clearance_mm:g} mm")
         if self.smoothing_scope not in ("local", "path"):
             raise InputError("unknown smoothing scope", field="smoothing_scope",
                              value=self.smoothing_scope, accepted="local, path")

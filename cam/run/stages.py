@@ -55,14 +55,11 @@ def geometry_stage(ctx: Context) -> None:
 
 
 #: Roughing options the chain sets unless the spec's ``[machining.rough]`` does.
-#: ``umr_layering``: the 3+2 plan's layers by milling depth leave cusps of up to
-#: 0.6 mm where eq. 2's steps are thin (the outlet), and finishing keeps its shank
-#: and holder only ``roughed_stock`` from the design; on nine_blade the depth layers
-#: made the finish programs verify with 73 shank events (up to 0.76 mm, the neck just
-#: above the flutes in the blank skin over the trailing edges' tip corners; eq. 2's
-#: layers: 0). Until finishing checks its shank against the verified rough stock the
-#: chain keeps eq. 2's layers (docs/run.md, session 9).
-CHAIN_ROUGH_DEFAULTS: dict[str, Any] = {"umr_layering": "ruling"}
+#: ``umr_layering``: the 3+2 plan's layers by milling depth (22 % shorter on nine_blade)
+#: leave up to 0.5 mm more in the trailing edges' tip corners than eq. 2's; finishing
+#: checks its shank and holder against the verified rough stock (``finish_stage``,
+#: cam/finishing/stock_clearance.py), so the chain takes the faster plan (docs/run.md).
+CHAIN_ROUGH_DEFAULTS: dict[str, Any] = {"umr_layering": "depth"}
 
 
 def rough_options(ctx: Context) -> dict[str, Any]:
@@ -99,18 +96,20 @@ def roughed_stock(ctx: Context) -> float:
 def finish_options(ctx: Context) -> dict[str, Any]:
     """The finishing options of the chain: shank and holder clear the roughed stock.
 
-    Finishing checks shank and holder against the design, but when it runs the part
-    still carries what roughing left (``roughed_stock``). The finishing setting
-    ``clearance_mm`` (default ``DEFAULT_TOLERANCES.clearance``) is therefore the
-    clearance from that stock: finishing is given ``clearance_mm + roughed_stock``
-    from the design (and ``clearance_exact_mm`` at least that).
+    When finishing runs the part still carries what roughing left. The finishing
+    setting ``clearance_mm`` (default ``DEFAULT_TOLERANCES.clearance``) is therefore the
+    clearance from that stock: finishing is given ``clearance_mm + roughed_stock`` from
+    the design (the material roughing is meant to leave, and ``clearance_exact_mm`` at
+    least that) and ``stock_clearance_mm`` (default: ``clearance_mm``) from the verified
+    rough stock's material beyond it (``finish_stage``).
     """
     from cam.finishing.options import FinishOptions
 
     options = dict(ctx.settings.finish)
     defaults = FinishOptions()
-    clearance = float(options.get("clearance_mm", defaults.clearance_mm)) \
-        + roughed_stock(ctx)
+    base = float(options.get("clearance_mm", defaults.clearance_mm))
+    clearance = base + roughed_stock(ctx)
+    options["stock_clearance_mm"] = float(options.get("stock_clearance_mm", base))
     options["clearance_mm"] = clearance
     options["clearance_exact_mm"] = max(
         float(options.get("clearance_exact_mm", defaults.clearance_exact_mm)), clearance)
@@ -131,12 +130,16 @@ def fillet_tool(ctx: Context) -> str | None:
 
 
 def finish_stage(ctx: Context) -> None:
-    """Five-axis finishing (``run_finish``) with the finishing tool (``finish_options``),
+    """The rough programs verified (``verify_rough``), then five-axis finishing
+    (``run_finish``) with the finishing tool (``finish_options``) against that stock,
     and the fillet pencil passes with ``fillet_tool``."""
     from cam.finishing.command import run_finish
+    from cam.run.rough_stock import verify_rough
 
+    stock = verify_rough(ctx)
     run_finish(ctx.spec, ctx.machine, ctx.settings.finish_tool, ctx.out / "finish",
-               progress=False, fillet_tool=fillet_tool(ctx), **finish_options(ctx))
+               progress=False, fillet_tool=fillet_tool(ctx), stock=stock,
+               **finish_options(ctx))
 
 
 def apt_files(ctx: Context) -> list[tuple[str, str, str]]:

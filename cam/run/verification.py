@@ -24,13 +24,16 @@ import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from cam.run.regions import LabelledDesign, region_summary
 from cam.run.stages import Context, fillet_tool, nc_programs, read_json, rough_allowance
 from geometry.spec import load_spec
 from impeller_cam.atomic import replace_path, write_text_atomic
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
+
+if TYPE_CHECKING:
+    from cam.verify.deviation import Deviation
 
 __all__ = ["allowances", "verify_chain"]
 
@@ -74,6 +77,7 @@ def _relocate(folder: Path, stock: str) -> None:
 
 def verify_chain(ctx: Context) -> dict[str, Any]:
     """Run both verifications and the region analysis; returns regions.json content."""
+    from cam.run.rough_stock import reusable_rough, stock_deviation
     from cam.tools import resolve_tool
     from cam.verify.command import VerifyOptions, run_verify
 
@@ -92,13 +96,20 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
     design = LabelledDesign(ctx.spec)
     lathe = float(load_spec(ctx.spec).stock_allowance)
     with _staged_folder(ctx.out / "verify") as stage:
-        # the report shows the stock after the last program of each run
-        rough_deviation = run_verify(
-            rough, ctx.machine, ctx.settings.rough_tool, str(ctx.spec), ctx.spec, resolution,
-            stage / "rough",
-            options=VerifyOptions(allowance=allow["rough"], render_each_program=False,
-                                  refuse_short_stock=True),
-            progress=False, design_distance=design.distance)
+        # the report shows the stock after the last program of each run; the finish
+        # stage's run of the same rough programs is reused (cam/run/rough_stock.py)
+        reused = reusable_rough(ctx)
+        rough_deviation: Deviation | None
+        if reused is not None:
+            shutil.copytree(reused, stage / "rough", ignore=shutil.ignore_patterns("nc"))
+            rough_deviation = stock_deviation(stage / "rough" / "stock.npz", design.distance)
+        else:
+            rough_deviation = run_verify(
+                rough, ctx.machine, ctx.settings.rough_tool, str(ctx.spec), ctx.spec,
+                resolution, stage / "rough",
+                options=VerifyOptions(allowance=allow["rough"], render_each_program=False,
+                                      refuse_short_stock=True),
+                progress=False, design_distance=design.distance)
         finish_deviation = run_verify(
             finish, ctx.machine, finish_tools, str(stage / "rough" / "stock.npz"),
             ctx.spec, resolution, stage / "finish",

@@ -142,16 +142,35 @@ def test_finishing_shank_and_holder_clear_the_stock_roughing_left(chain_small: P
     assert counts["holder_collision"] == 0 and counts["rapid_in_stock"] == 0, counts
 
 
-def test_the_chain_roughs_in_eq2_layers_unless_the_spec_says(chain_small: Path) -> None:
-    """The chain's default ``umr_layering = "ruling"`` (``stages.CHAIN_ROUGH_DEFAULTS``:
-    finishing assumes the stock eq. 2's layers leave); a spec or override wins."""
+def test_the_chain_roughs_in_depth_layers_unless_the_spec_says(chain_small: Path) -> None:
+    """The chain's default ``umr_layering = "depth"`` (``stages.CHAIN_ROUGH_DEFAULTS``:
+    finishing checks the stock the layers really leave); a spec or override wins."""
     from cam.run.settings import resolve_settings
     from cam.run.stages import Context, rough_options
 
-    assert load(chain_small, "rough/rough.json")["options"]["umr_layering"] == "ruling"
+    assert load(chain_small, "rough/rough.json")["options"]["umr_layering"] == "depth"
     ctx = Context(SMALL_SPEC, CHAIN_MACHINE, chain_small,
-                  resolve_settings(SMALL_SPEC, rough={"umr_layering": "depth"}))
-    assert rough_options(ctx)["umr_layering"] == "depth"
+                  resolve_settings(SMALL_SPEC, rough={"umr_layering": "ruling"}))
+    assert rough_options(ctx)["umr_layering"] == "ruling"
+
+
+def test_finishing_plans_against_the_verified_rough_stock(chain_small: Path) -> None:
+    """Issue 18: the finish stage verifies the rough programs first and plans against
+    that stock (the one the verify stage finishes from: equal volumes); shank and
+    holder keep 0.5 mm from its material beyond the 1.3 mm roughing is meant to leave,
+    no path is left touching it, and the cutter's engagement is reported per path."""
+    finish = load(chain_small, "finish/finish.json")
+    stock = finish["stock"]
+    assert stock["source"].endswith("verify/rough/stock.npz")
+    rough = load(chain_small, "verify/rough/verify.json")
+    assert stock["stock_volume_mm3"] == pytest.approx(rough["remaining_volume_mm3"], abs=1e-3)
+    assert stock["offset_mm"] == pytest.approx(0.3 + CHAIN_SETTINGS["rough"]["scallop_mm"])
+    assert finish["options"]["stock_clearance_mm"] == pytest.approx(0.5)
+    assert stock["paths_blocked_by_stock"] == []
+    for entry in finish["paths"]:
+        assert set(entry["stock_engagement"]) == {"max_depth_mm", "points_over"}
+    assert stock["engaged_points_over"] == sum(len(e["stock_engagement"]["points_over"])
+                                               for e in finish["paths"])
 
 
 def test_verification_finds_no_holder_collision_and_no_rapid_in_stock(chain_small: Path
@@ -314,3 +333,36 @@ def test_rerun_of_verify_replaces_its_nested_folder(chain_small: Path, tmp_path:
     assert load(out, "verify/finish/verify.json")["stock"] == str(
         out / "verify" / "rough" / "stock.npz")
     assert not [p for p in out.iterdir() if p.name.startswith(".")]
+
+
+def test_the_verify_stage_reuses_the_finish_stage_rough_run_only_when_it_matches(
+        chain_small: Path, tmp_path: Path) -> None:
+    """``rough_stock.reusable_rough``: the finish stage's rough verification stands for
+    the verify stage's only when it verified the very programs the post stage wrote,
+    with the same tool, resolution and allowance."""
+    import shutil
+
+    from cam.run.rough_stock import reusable_rough
+    from cam.run.settings import resolve_settings
+    from cam.run.stages import Context
+
+    out = tmp_path / "out"
+    for relative in ("rough/rough.json", "nc/post.json", "verify/rough/verify.json",
+                     "verify/rough/stock.npz"):
+        (out / relative).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(chain_small / relative, out / relative)
+    programs = [p["nc"] for p in load(chain_small, "nc/post.json")["programs"]
+                if p["operation"] == "rough"]
+    (out / "verify/rough/nc").mkdir()
+    for nc in programs:
+        shutil.copy(chain_small / nc, out / nc)
+        shutil.copy(chain_small / nc, out / "verify/rough/nc" / Path(nc).name)
+    settings = {k: v for k, v in CHAIN_SETTINGS.items()}
+    ctx = Context(SMALL_SPEC, CHAIN_MACHINE, out, resolve_settings(SMALL_SPEC, **settings))
+    assert reusable_rough(ctx) == out / "verify/rough"
+    other = Context(SMALL_SPEC, CHAIN_MACHINE, out, resolve_settings(
+        SMALL_SPEC, **{**settings, "verify_resolution_mm": 0.5}))
+    assert reusable_rough(other) is None
+    with open(out / programs[0], "a") as handle:
+        handle.write("(changed)\n")
+    assert reusable_rough(ctx) is None

@@ -1,0 +1,105 @@
+"""The verified rough stock: made by the finish stage, reused by the verify stage.
+
+Finishing plans against the stock the rough programs really leave (issue 18,
+cam/finishing/stock_clearance.py), so the finish stage verifies the rough programs
+before it plans (``verify_rough``): it posts the rough APT files as the post stage
+will and verifies them on the spec's blank into ``verify/rough/``. The verify stage
+then needs the same run; ``reusable_rough`` says whether the one on disk verified
+exactly the programs the post stage wrote (byte for byte) with the same tool,
+resolution and allowance, and ``stock_deviation`` gives its final stock's deviation
+from the design (what ``run_verify`` returns), so that run is not repeated.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import tempfile
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from cam.run.stages import Context, nc_programs, read_json, rough_allowance
+from impeller_cam.atomic import replace_path, write_text_atomic
+
+if TYPE_CHECKING:
+    from cam.verify.deviation import DesignDistance, Deviation
+
+__all__ = ["ROUGH_VERIFY", "reusable_rough", "stock_deviation", "verify_rough"]
+
+#: Where the finish stage leaves the rough verification (relative to the output).
+ROUGH_VERIFY = "verify/rough"
+
+
+def verify_rough(ctx: Context) -> Path:
+    """Post and verify the rough programs on the blank; the verified stock's path.
+
+    The rough APT files are posted as the post stage will (same dialect and names,
+    into ``verify/rough/nc/``) and verified with the roughing tool on the spec's blank
+    at ``verify_resolution_mm``, allowance ``rough_allowance``, rendering the last
+    stock only (as the verify stage does), into ``verify/rough/`` (replaced as a whole
+    on success).
+    """
+    from cam.verify.command import VerifyOptions, run_verify
+    from postproc.command import post_text
+    from postproc.machine import load_machine
+    from postproc.posts import get_post
+
+    dialect = get_post(ctx.settings.post or load_machine(ctx.machine).post)
+    rough = read_json(ctx, "rough/rough.json", "rough")
+    target = ctx.out / ROUGH_VERIFY
+    target.parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=".rough-staging-", dir=target.parent))
+    try:
+        programs = []
+        (stage / "nc").mkdir()
+        for op in rough["operations"]:
+            apt = ctx.out / "rough" / op["apt"]
+            nc = stage / "nc" / f"{Path(op['apt']).stem}.{dialect.extension}"
+            write_text_atomic(nc, post_text(apt, ctx.machine, post=dialect.name))
+            programs.append(nc)
+        run_verify(programs, ctx.machine, ctx.settings.rough_tool, str(ctx.spec), ctx.spec,
+                   ctx.settings.verify_resolution_mm, stage,
+                   options=VerifyOptions(allowance=rough_allowance(ctx),
+                                         render_each_program=False,
+                                         refuse_short_stock=True), progress=False)
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        raise
+    replace_path(stage, target)
+    return target / "stock.npz"
+
+
+def reusable_rough(ctx: Context) -> Path | None:
+    """``verify/rough`` when it verified the post stage's rough programs (byte for byte)
+    with this roughing tool, resolution and allowance; else None."""
+    folder = ctx.out / ROUGH_VERIFY
+    try:
+        data = json.loads((folder / "verify.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not (folder / "stock.npz").is_file():
+        return None
+    from cam.tools import resolve_tool
+
+    allowance = data.get("deviation", {}).get("allowance_mm")
+    if (data.get("tool") != resolve_tool(ctx.settings.rough_tool).name
+            or data.get("resolution_mm") != ctx.settings.verify_resolution_mm
+            or allowance is None or abs(float(allowance) - rough_allowance(ctx)) > 1e-12):
+        return None
+    for program in nc_programs(ctx, "rough"):
+        posted = ctx.out / program["nc"]
+        mine = folder / "nc" / posted.name
+        if not mine.is_file() or mine.read_bytes() != posted.read_bytes():
+            return None
+    return folder
+
+
+def stock_deviation(stock: Path, distance: DesignDistance) -> Deviation:
+    """Surface samples of a saved stock with their signed design distance and closest
+    design face (what ``run_verify`` returns for its final stock)."""
+    from cam.verify.deviation import Deviation
+    from cam.verify.stock import Stock
+
+    points, _, moves = Stock.load(stock).surface_samples()
+    signed, face = distance.closest(points)
+    return Deviation(points, signed, moves, face)
