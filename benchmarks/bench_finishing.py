@@ -75,10 +75,15 @@ def main_job_settings(spec: Path) -> tuple[str, dict[str, Any]]:
 
 def child(out: Path, tool: str, options: dict[str, Any]) -> None:
     """Run the finish stage with whatever ``cam`` the path gives; print a JSON line."""
+    import cam
     from cam.finishing.command import run_finish
 
+    # each side reads its own tree's fixtures: a newer machine file may carry tables
+    # (e.g. [model]) that the older code refuses
+    tree = Path(cam.__file__).resolve().parents[1]
+    spec, machine = (tree / p.relative_to(ROOT) for p in (SPEC, MACHINE))
     wall, cpu = time.perf_counter(), time.process_time()
-    doc = run_finish(SPEC, MACHINE, tool, out, progress=False, plots=False, **options)
+    doc = run_finish(spec, machine, tool, out, progress=False, plots=False, **options)
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     s = doc["summary"]
     print(json.dumps({"wall": wall, "cpu": cpu, "points": s["points"], "paths": s["paths"],
