@@ -6,6 +6,10 @@ built on it. ``cam.verify.deviation.DesignDistance`` (signed distance from the d
 the verification's deviation, gouge and excess, and the chain's per-face summary) asks
 it for the closest of each point's candidate triangles.
 
+In the plane, ``closest_on_polyline`` projects points on a polyline (the meridional
+hub and shroud contours of ``cam.run.regions``: arc-length position, distance and
+side of the closest point, for the tens of millions of a verified stock's samples).
+
 Agreement with ``trimesh.triangles.closest_point`` (the NumPy version of the same
 algorithm) is tested to 1e-9 mm on random and degenerate triangles.
 """
@@ -18,7 +22,8 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-__all__ = ["closest_point_on_triangle", "closest_of_candidates", "closest_points"]
+__all__ = ["closest_of_candidates", "closest_on_polyline", "closest_point_on_triangle",
+           "closest_points", "polyline_projection"]
 
 
 @njit(cache=True, inline="always")
@@ -176,3 +181,85 @@ def closest_of_candidates(points, candidates, triangles, normals, tie):  # type:
         out[i] = sign * best
         pick[i] = candidates[i, chosen]
     return out, pick
+
+
+@njit(cache=True, parallel=True)
+def closest_on_polyline(points, polyline):  # type: ignore[no-untyped-def]
+    """Closest point of a plane polyline to each point: position, distance and side.
+
+    The closest segment is the first one of least distance (in polyline order); on it
+    the foot is the projection clamped to the segment.
+
+    Parameters
+    ----------
+    points : (n, 2) float64
+        Query points, mm.
+    polyline : (k, 2) float64
+        Vertices, k >= 2, mm; no segment of zero length.
+
+    Returns
+    -------
+    position : (n,) float64
+        Arc length from the first vertex to the foot, mm.
+    distance : (n,) float64
+        Distance to the foot, mm.
+    cross : (n,) float64
+        ``e x (p - q)`` (z component) of the closest segment's direction ``e`` (not
+        normalised) and the point's offset from the foot: > 0 on the left of the
+        polyline, mm^2.
+    """
+    k = polyline.shape[0] - 1
+    ex = np.empty(k)
+    ey = np.empty(k)
+    length2 = np.empty(k)
+    start = np.empty(k)
+    run = 0.0
+    for s in range(k):
+        ex[s] = polyline[s + 1, 0] - polyline[s, 0]
+        ey[s] = polyline[s + 1, 1] - polyline[s, 1]
+        length2[s] = ex[s] * ex[s] + ey[s] * ey[s]
+        start[s] = run
+        run += math.sqrt(length2[s])
+    n = points.shape[0]
+    position = np.empty(n)
+    distance = np.empty(n)
+    cross = np.empty(n)
+    for i in prange(n):
+        px, py = points[i, 0], points[i, 1]
+        best = np.inf
+        best_s = 0
+        best_t = 0.0
+        best_rx = 0.0
+        best_ry = 0.0
+        for s in range(k):
+            wx, wy = px - polyline[s, 0], py - polyline[s, 1]
+            t = min(max((wx * ex[s] + wy * ey[s]) / length2[s], 0.0), 1.0)
+            rx, ry = wx - t * ex[s], wy - t * ey[s]
+            d = math.sqrt(rx * rx + ry * ry)
+            if d < best:
+                best, best_s, best_t, best_rx, best_ry = d, s, t, rx, ry
+        position[i] = start[best_s] + best_t * math.sqrt(length2[best_s])
+        distance[i] = best
+        cross[i] = ex[best_s] * best_ry - ey[best_s] * best_rx
+    return position, distance, cross
+
+
+def polyline_projection(points: NDArray[np.float64], polyline: NDArray[np.float64]
+                        ) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                   NDArray[np.float64]]:
+    """``closest_on_polyline`` for any array-likes: position (n,), distance (n,) and
+    side (n,) (``cross``) of each point's closest polyline point.
+
+    Parameters
+    ----------
+    points : (n, 2) float64
+        Query points, mm.
+    polyline : (k, 2) float64
+        Vertices, k >= 2, mm.
+    """
+    p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
+    line = np.ascontiguousarray(polyline, dtype=np.float64).reshape(-1, 2)
+    if len(line) < 2:
+        raise ValueError(f"a polyline needs two vertices, not {len(line)}")
+    position, distance, cross = closest_on_polyline(p, line)
+    return np.asarray(position), np.asarray(distance), np.asarray(cross)

@@ -142,16 +142,28 @@ def on_tip_edge(triangles: NDArray[np.float64], roles: NDArray[np.str_],
         True where the closest tip point is as close as the closest design point (to
         ``ON_EDGE``): the foot is on the edge a blade side shares with its tip.
     """
+    out = np.zeros(len(points), dtype=bool)
     tips = triangles[roles == "shroud"]
     if not len(tips) or not len(points):
-        return np.zeros(len(points), dtype=bool)
-    _, to_tip = closest_roles(tips, np.full(len(tips), "shroud"), points)
-    return np.asarray(to_tip <= distance + ON_EDGE)
+        return out
+    # a tip triangle whose centroid is farther than distance + ON_EDGE + reach cannot
+    # be that close: only points near a tip need the query (as in ``near_faces``)
+    centroids = tips.mean(axis=1)
+    reach = float(np.linalg.norm(tips - centroids[:, None], axis=2).max())
+    nearest, _ = cKDTree(centroids).query(points, k=1)
+    maybe = np.flatnonzero(np.asarray(nearest) <= distance + ON_EDGE + reach)
+    if len(maybe):
+        _, to_tip = closest_roles(tips, np.full(len(tips), "shroud"), points[maybe])
+        out[maybe] = to_tip <= distance[maybe] + ON_EDGE
+    return out
 
 
 def _polyline_fraction(zr: NDArray[np.float64], contour: NDArray[np.float64]
                        ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Arc-length position (mm) of the closest point of a (z, r) polyline, and the distance.
+
+    Compiled (``geometry.mesh_query.polyline_projection``): a verified stock has tens of
+    millions of samples.
 
     Parameters
     ----------
@@ -160,21 +172,10 @@ def _polyline_fraction(zr: NDArray[np.float64], contour: NDArray[np.float64]
     contour : (k, 2) float64
         The polyline (z, r), mm.
     """
-    a, b = contour[:-1], contour[1:]
-    ab = b - a
-    length = np.linalg.norm(ab, axis=1)
-    start = np.concatenate([[0.0], np.cumsum(length)])[:-1]
-    m = np.empty(len(zr))
-    d = np.empty(len(zr))
-    for s in range(0, len(zr), CHUNK):
-        p = zr[s:s + CHUNK, None, :]
-        t = np.clip(np.einsum("nkc,kc->nk", p - a[None], ab) / (length**2)[None], 0.0, 1.0)
-        dist = np.linalg.norm(p - (a[None] + t[..., None] * ab[None]), axis=2)
-        best = np.argmin(dist, axis=1)
-        rows = np.arange(len(best))
-        m[s:s + CHUNK] = start[best] + t[rows, best] * length[best]
-        d[s:s + CHUNK] = dist[rows, best]
-    return m, d
+    from geometry.mesh_query import polyline_projection
+
+    position, distance, _ = polyline_projection(zr, contour)
+    return position, distance
 
 
 def passage_position(points: NDArray[np.float64], hub: NDArray[np.float64],
@@ -226,25 +227,13 @@ def shroud_offset(points: NDArray[np.float64], shroud: NDArray[np.float64],
     shroud, hub : (k, 2) float64
         Meridional contours (z, r), mm; they must not cross.
     """
-    zr = np.column_stack([points[:, 2], np.hypot(points[:, 0], points[:, 1])])
-    a, b = shroud[:-1], shroud[1:]
-    ab = b - a
-    length2 = np.sum(ab * ab, axis=1)
+    from geometry.mesh_query import polyline_projection
 
     def side(p: NDArray[np.float64]) -> NDArray[np.float64]:
-        out = np.empty(len(p))
-        for s in range(0, len(p), CHUNK):
-            q = p[s:s + CHUNK, None, :]
-            t = np.clip(np.einsum("nkc,kc->nk", q - a[None], ab) / length2[None], 0.0, 1.0)
-            rel = q - (a[None] + t[..., None] * ab[None])
-            dist = np.linalg.norm(rel, axis=2)
-            best = np.argmin(dist, axis=1)
-            rows = np.arange(len(best))
-            r = rel[rows, best]
-            cross = ab[best, 0] * r[:, 1] - ab[best, 1] * r[:, 0]
-            out[s:s + CHUNK] = np.where(cross < 0.0, -1.0, 1.0) * dist[rows, best]
-        return out
+        _, distance, cross = polyline_projection(p, shroud)
+        return np.where(cross < 0.0, -1.0, 1.0) * distance
 
+    zr = np.column_stack([points[:, 2], np.hypot(points[:, 0], points[:, 1])])
     hub_side = float(np.sign(side(hub[len(hub) // 2][None])[0]))
     return np.asarray(-hub_side * side(zr))
 

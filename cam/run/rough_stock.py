@@ -23,6 +23,7 @@ from impeller_cam.atomic import replace_path, write_text_atomic
 
 if TYPE_CHECKING:
     from cam.verify.deviation import DesignDistance, Deviation
+    from cam.verify.stock import Stock
 
 __all__ = ["ROUGH_VERIFY", "reusable_rough", "stock_deviation", "verify_rough"]
 
@@ -94,12 +95,11 @@ def reusable_rough(ctx: Context) -> Path | None:
     return folder
 
 
-def stock_deviation(stock: Path, distance: DesignDistance) -> Deviation:
-    """Surface samples of a saved stock with their signed design distance and closest
-    design face (what ``run_verify`` returns for its final stock)."""
+def stock_deviation(stock: Stock, distance: DesignDistance) -> Deviation:
+    """Surface samples of a stock with their signed design distance and closest design
+    face (what ``run_verify`` returns for its final stock)."""
     from cam.verify.deviation import Deviation
-    from cam.verify.stock import Stock
 
-    points, _, moves = Stock.load(stock).surface_samples()
+    points, _, moves = stock.surface_samples()
     signed, face = distance.closest(points)
     return Deviation(points, signed, moves, face)

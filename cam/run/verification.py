@@ -8,7 +8,8 @@ are written together into ``verify/`` (all or nothing):
   (``stock_short``: the blank cuts into the part somewhere) stops the stage with an
   ``InputError`` before any block is run, nothing written;
 * ``verify/finish``: the finish NC files, each with its tool (the finishing tool; the
-  fillet program with the fillet tool), starting from ``verify/rough/stock.npz``;
+  fillet program with the fillet tool), starting from the stock the rough run left
+  (handed over in memory; ``verify/rough/stock.npz`` is that stock as saved);
   allowance = finishing scallop;
 * ``verify/regions.json``: the deviation of the rough and the finished stock per face
   face group (``cam.run.regions``): the acceptance numbers (every milled face: blade
@@ -65,21 +66,13 @@ def allowances(ctx: Context) -> dict[str, float]:
     return {"rough": rough_allowance(ctx), "finish": float(finish["scallop_mm"])}
 
 
-def _relocate(folder: Path, stock: str) -> None:
-    """verify.json names its input stock; replace the staging path by the final one."""
-    from cam.verify.report import verify_json
-
-    path = folder / "verify.json"
-    data = json.loads(path.read_text())
-    data["stock"] = stock
-    write_text_atomic(path, verify_json(data))
-
-
 def verify_chain(ctx: Context) -> dict[str, Any]:
     """Run both verifications and the region analysis; returns regions.json content."""
     from cam.run.rough_stock import reusable_rough, stock_deviation
     from cam.tools import resolve_tool
     from cam.verify.command import VerifyOptions, run_verify
+    from cam.verify.sources import load_stock
+    from cam.verify.stock import Stock
 
     rough = [ctx.out / p["nc"] for p in nc_programs(ctx, "rough")]
     finish_entries = nc_programs(ctx, "finish")
@@ -97,26 +90,29 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
     lathe = float(load_spec(ctx.spec).stock_allowance)
     with _staged_folder(ctx.out / "verify") as stage:
         # the report shows the stock after the last program of each run; the finish
-        # stage's run of the same rough programs is reused (cam/run/rough_stock.py)
+        # stage's run of the same rough programs is reused (cam/run/rough_stock.py);
+        # one stock through both runs: the finish run continues the rough run's final
+        # state in memory (verify/rough/stock.npz is that state, written once)
         reused = reusable_rough(ctx)
         rough_deviation: Deviation | None
         if reused is not None:
             shutil.copytree(reused, stage / "rough", ignore=shutil.ignore_patterns("nc"))
-            rough_deviation = stock_deviation(stage / "rough" / "stock.npz", design.distance)
+            stock = Stock.load(stage / "rough" / "stock.npz")
+            rough_deviation = stock_deviation(stock, design.distance)
         else:
+            stock = load_stock(str(ctx.spec), resolution)
             rough_deviation = run_verify(
                 rough, ctx.machine, ctx.settings.rough_tool, str(ctx.spec), ctx.spec,
                 resolution, stage / "rough",
                 options=VerifyOptions(allowance=allow["rough"], render_each_program=False,
                                       refuse_short_stock=True),
-                progress=False, design_distance=design.distance)
+                progress=False, design_distance=design.distance, initial_stock=stock)
         finish_deviation = run_verify(
-            finish, ctx.machine, finish_tools, str(stage / "rough" / "stock.npz"),
+            finish, ctx.machine, finish_tools, str(ctx.out / "verify" / "rough" / "stock.npz"),
             ctx.spec, resolution, stage / "finish",
             options=VerifyOptions(allowance=allow["finish"], render_each_program=False),
-            progress=False, design_distance=design.distance)
+            progress=False, design_distance=design.distance, initial_stock=stock)
         assert rough_deviation is not None and finish_deviation is not None
-        _relocate(stage / "finish", str(ctx.out / "verify" / "rough" / "stock.npz"))
         regions = {
             "format": "impeller-cam regions 2",
             "resolution_mm": resolution,

@@ -235,6 +235,7 @@ def run_verify(
     options: VerifyOptions | None = None,
     progress: bool | None = None,
     design_distance: DesignDistance | None = None,
+    initial_stock: Stock | None = None,
 ) -> Deviation | None:
     """Verify NC programs in sequence on one stock; write the results into ``out``.
 
@@ -263,6 +264,11 @@ def run_verify(
         The signed distance from ``design``, already built (the chain builds the
         design once for both of its runs and its per-face summary); ``design`` then
         only names it, and the allowance comes from ``options``.
+    initial_stock : Stock, optional
+        The stock to start from, already in memory; it is swept in place and ends as
+        the final state (the chain hands the stock its rough run left to its finish
+        run instead of saving and loading it). ``stock`` then only names it in
+        verify.json.
 
     Returns
     -------
@@ -294,7 +300,7 @@ def run_verify(
     read = [read_nc(p, machine=the_machine) for p in programs]  # all programs parse before any work
     design_mesh = (load_design(design) if design is not None and design_distance is None
                    else None)
-    work = load_stock(stock, resolution)
+    work = load_stock(stock, resolution) if initial_stock is None else initial_stock
     sweep_tol = opts.sweep_tolerance or 0.1 * work.pitch
     # one machine scene per tool (the holder and tool solids ride on the spindle)
     scenes = {t.name: machine_scene_for(the_machine, t, work) for t in the_tools}
@@ -314,6 +320,7 @@ def run_verify(
     summaries: list[dict[str, Any]] = []
     images: list[tuple[str, bytes]] = []
     renders: dict[str, bytes] = {}
+    surface: tuple[NDArray[np.float64], NDArray[np.int64]] | None = None
     cycle = 0.0
     bar = progress_bar(progress)
     if bar is not None:
@@ -351,7 +358,8 @@ def run_verify(
                 renders[f"machine_{index + 1}_{path.stem}.png"] = png
                 images.append((f"machine at the smallest clearance of {path.name}", png))
             if opts.render and (opts.render_each_program or index == len(programs) - 1):
-                png = _render_stock(work, f"after {path.name}")
+                surface = _stock_surface(work)  # the last one is the final stock's
+                png = _render_stock(surface, f"after {path.name}")
                 renders[f"stock_{index + 1}_{path.stem}.png"] = png
                 images.append((f"stock after {path.name}", png))
     finally:
@@ -372,13 +380,16 @@ def run_verify(
         )
         events.extend(sort_events(found))
         if opts.render:
+            surface = surface if surface is not None else _stock_surface(work)
+            values = _surface_deviation(surface[0], deviation)
             for view in ("iso", "top", "front"):
-                png = _render_deviation(work, deviation, view, allowance)
+                png = _render_deviation(surface, values, view, allowance)
                 renders[f"deviation_{view}.png"] = png
                 images.append((f"deviation from the design ({view})", png))
     elif opts.render:
+        surface = surface if surface is not None else _stock_surface(work)
         for view in ("top", "front"):
-            png = _render_stock(work, f"final stock ({view})", view)
+            png = _render_stock(surface, f"final stock ({view})", view)
             renders[f"stock_final_{view}.png"] = png
             images.append((f"final stock ({view})", png))
 
@@ -435,26 +446,43 @@ def _write_outputs(
             write_bytes_atomic(stage / name, png)
 
 
-def _render_stock(work: Stock, title: str, view: str = "iso") -> bytes:
-    from cam.verify.report import render_mesh
+def _stock_surface(work: Stock) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Render surface of the stock as it is: vertices (v, 3) mm, faces (f, 3)."""
     from cam.verify.surface import stock_surface
 
-    vertices, faces = stock_surface(work.grids[2], work.lower[2], work.upper[2])
-    return render_mesh(vertices, faces, view=view, title=title)
+    return stock_surface(work.grids[2], work.lower[2], work.upper[2])
 
 
-def _render_deviation(work: Stock, deviation: Deviation, view: str, allowance: float) -> bytes:
-    """Stock surface coloured by the signed deviation of the nearest dexel sample."""
+def _render_stock(surface: tuple[NDArray[np.float64], NDArray[np.int64]], title: str,
+                  view: str = "iso") -> bytes:
+    """PNG of a stock surface (``_stock_surface``)."""
+    from cam.verify.report import render_mesh
+
+    return render_mesh(surface[0], surface[1], view=view, title=title)
+
+
+def _surface_deviation(vertices: NDArray[np.float64], deviation: Deviation
+                       ) -> NDArray[np.float64] | None:
+    """Signed deviation (v,) mm of the dexel sample nearest to each render vertex
+    (``None`` without vertices or samples)."""
     from scipy.spatial import cKDTree
 
-    from cam.verify.report import render_mesh
-    from cam.verify.surface import stock_surface
-
-    vertices, faces = stock_surface(work.grids[2], work.lower[2], work.upper[2])
     if len(vertices) == 0 or len(deviation.points) == 0:
-        return render_mesh(vertices, faces, view=view, title="deviation")
+        return None
     _, nearest = cKDTree(deviation.points).query(vertices)
-    values = deviation.distance[nearest]
+    return np.asarray(deviation.distance[nearest])
+
+
+def _render_deviation(surface: tuple[NDArray[np.float64], NDArray[np.int64]],
+                      values: NDArray[np.float64] | None, view: str, allowance: float
+                      ) -> bytes:
+    """Stock surface coloured by the signed deviation of the nearest dexel sample
+    (``_surface_deviation``)."""
+    from cam.verify.report import render_mesh
+
+    vertices, faces = surface
+    if values is None:
+        return render_mesh(vertices, faces, view=view, title="deviation")
     limit = max(4.0 * max(allowance, 0.05), 0.1)
     return render_mesh(vertices, faces, view=view, scalars=values, limit=limit,
                        title=f"deviation from design ({view}), mm")

@@ -168,6 +168,36 @@ def test_programs_run_in_sequence_through_the_saved_state(tmp_path: Path) -> Non
                                                                  for n in range(1, 5)]
 
 
+def test_a_stock_handed_over_in_memory_continues_as_the_saved_state(tmp_path: Path) -> None:
+    _write(tmp_path / "rough.ngc", ["G0 X-20 Y0 Z15", "G1 Z7 F300", "G1 X20", "G0 Z15"])
+    _write(tmp_path / "finish.ngc", ["G0 X-20 Y3 Z15", "G1 Z6 F300", "G1 X20", "G0 Z15"])
+    saved = tmp_path / "saved"
+    run_verify([tmp_path / "rough.ngc"], MACHINE, "ball6", "cylinder:50,10", None, 0.2,
+               tmp_path / "first", options=FAST, progress=False)
+    run_verify([tmp_path / "finish.ngc"], MACHINE, "ball6",
+               str(tmp_path / "first" / "stock.npz"), None, 0.2, saved, options=FAST,
+               progress=False)
+    stock = Stock.cylinder(50.0, 10.0, 0.2)
+    run_verify([tmp_path / "rough.ngc"], MACHINE, "ball6", "cylinder:50,10", None, 0.2,
+               tmp_path / "memory_first", options=FAST, progress=False, initial_stock=stock)
+    memory = tmp_path / "memory"
+    run_verify([tmp_path / "finish.ngc"], MACHINE, "ball6", "named.npz", None, 0.2, memory,
+               options=FAST, progress=False, initial_stock=stock)
+    expected = json.loads((saved / "verify.json").read_text())
+    got = json.loads((memory / "verify.json").read_text())
+    assert got["stock"] == "named.npz"
+    for key in ("initial_volume_mm3", "removed_volume_mm3", "remaining_volume_mm3",
+                "programs", "event_counts"):
+        assert got[key] == expected[key], key
+    a, b = Stock.load(saved / "stock.npz"), Stock.load(memory / "stock.npz")
+    assert a.owners == b.owners
+    for ga, gb in zip(a.grids, b.grids, strict=True):
+        assert np.array_equal(ga.count, gb.count)
+        sa, sb = ga.slots()[0], gb.slots()[0]
+        assert np.array_equal(ga.lo[sa], gb.lo[sb]) and np.array_equal(ga.hi[sa], gb.hi[sb])
+        assert np.array_equal(ga.hi_move[sa], gb.hi_move[sb])
+
+
 @pytest.mark.parametrize(
     ("stock", "tool", "field"),
     [("cylinder:50", "ball6", "--stock"), ("cylinder:50,10", "no_such_tool", "-t"),

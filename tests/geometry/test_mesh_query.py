@@ -9,7 +9,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from geometry.mesh_query import closest_of_candidates, closest_point_on_triangle
+from geometry.mesh_query import (
+    closest_of_candidates,
+    closest_point_on_triangle,
+    polyline_projection,
+)
 
 coords = arrays(np.float64, (4, 3), elements=st.floats(-50.0, 50.0, allow_nan=False,
                                                        allow_infinity=False))
@@ -76,3 +80,45 @@ def test_closest_of_candidates_sign_and_pick() -> None:
     d, which = closest_of_candidates(np.array([[0.5, 0.01, 3.0]]), np.array([[0, 1]]), roof,
                                      n, 1e-6)
     assert d[0] > 0 and which[0] == 1
+
+
+def _polyline_reference(points: np.ndarray, line: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Brute force: every segment's clamped projection, the first least distance."""
+    a, ab = line[:-1], line[1:] - line[:-1]
+    length = np.linalg.norm(ab, axis=1)
+    start = np.concatenate([[0.0], np.cumsum(length)])[:-1]
+    t = np.clip(np.einsum("nkc,kc->nk", points[:, None] - a[None], ab) / length**2, 0.0, 1.0)
+    rel = points[:, None] - (a[None] + t[..., None] * ab[None])
+    dist = np.linalg.norm(rel, axis=2)
+    best = np.argmin(dist, axis=1)
+    rows = np.arange(len(points))
+    cross = ab[best, 0] * rel[rows, best, 1] - ab[best, 1] * rel[rows, best, 0]
+    # where two segments are equally close (a vertex's region) rounding picks one
+    ties = np.sum(dist <= dist[rows, best][:, None] + 1e-9, axis=1) > 1
+    return start[best] + t[rows, best] * length[best], dist[rows, best], \
+        np.where(ties, np.nan, cross)
+
+
+def test_polyline_projection_agrees_with_the_brute_force() -> None:
+    rng = np.random.default_rng(11)
+    line = np.cumsum(rng.normal(size=(30, 2)), axis=0)
+    points = 4.0 * rng.normal(size=(5000, 2)) + line.mean(axis=0)
+    position, distance, cross = polyline_projection(points, line)
+    ref_position, ref_distance, ref_cross = _polyline_reference(points, line)
+    assert distance == pytest.approx(ref_distance, abs=1e-12)
+    assert position == pytest.approx(ref_position, abs=1e-9)
+    unique = ~np.isnan(ref_cross)
+    assert unique.sum() > 1000
+    assert cross[unique] == pytest.approx(ref_cross[unique], abs=1e-9)
+
+
+def test_polyline_projection_closed_form() -> None:
+    # an L: (0, 0) -> (10, 0) -> (10, 5)
+    line = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 5.0]])
+    points = np.array([[3.0, 2.0], [3.0, -1.0], [12.0, 4.0], [-3.0, 4.0], [13.0, 9.0]])
+    position, distance, cross = polyline_projection(points, line)
+    assert position == pytest.approx([3.0, 3.0, 14.0, 0.0, 15.0])
+    assert distance == pytest.approx([2.0, 1.0, 2.0, 5.0, 5.0])
+    # left of the first segment (+), right of it (-), right of the second (-)
+    assert np.sign(cross[:3]).tolist() == [1.0, -1.0, -1.0]
