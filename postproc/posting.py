@@ -130,6 +130,13 @@ class PostedProgram:
     def __len__(self) -> int:
         return len(self.record)
 
+    def simultaneous(self, index: int) -> bool:
+        """Whether operation ``index`` has simultaneous five-axis blocks (linear moves at
+        inverse-time feed: the rotary axes move with the cut)."""
+        rows = self.operation == index
+        return bool(np.any(rows & (self.blocks.motion == Motion.LINEAR)
+                           & (self.blocks.feed_mode == FeedMode.INVERSE_TIME)))
+
 
 @dataclass
 class _Chunk:

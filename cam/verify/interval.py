@@ -323,6 +323,22 @@ def normal_interval(  # type: ignore[no-untyped-def]
     return _normal_sel(qa, qb, qc, qd, qe, qf, zw, zd, zlo, zhi, alpha)
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def _row_ray_terms(  # type: ignore[no-untyped-def]
+    w1, w0, w2, ag0, ag1, ag2, dg0, dg1, dg2, zu, zd, alpha, beta, gamma,
+):
+    """The height ``zw`` and the ray's terms ``qd, qe, qf`` of Q(t, s) for one ray of a
+    row (``w = origin - tip``; its component along the row varies, ``w1``)."""
+    zw = ag0 * w0 + ag1 * w1 + ag2 * w2
+    wu = w2 - zw * zu
+    wd = w0 * dg0 + w1 * dg1 + w2 * dg2 - zw * zd
+    ww = w0 * w0 + w1 * w1 + w2 * w2 - zw * zw
+    qd = wu + alpha * zw * zu + 0.5 * beta * zu
+    qe = -wd - alpha * zw * zd - 0.5 * beta * zd
+    qf = ww + alpha * zw * zw + beta * zw + gamma
+    return zw, qd, qe, qf
+
+
 @njit(cache=True, error_model="numpy")
 def normal_row(  # type: ignore[no-untyped-def]
     out_a, out_b, out_ok, m0, m1, cj0, step, h, w0, tip1, w2, ag0, ag1, ag2, dg0, dg1, dg2,
@@ -331,15 +347,8 @@ def normal_row(  # type: ignore[no-untyped-def]
     """``normal_interval`` for rays ``m0 <= m < m1`` of one grid row, arguments as
     ``endpoint_row``; branch-free so that the loop vectorises."""
     for m in range(m0, m1):
-        cj = cj0 + m * step * h
-        w1 = cj - tip1
-        zw = ag0 * w0 + ag1 * w1 + ag2 * w2
-        wu = w2 - zw * zu
-        wd = w0 * dg0 + w1 * dg1 + w2 * dg2 - zw * zd
-        ww = w0 * w0 + w1 * w1 + w2 * w2 - zw * zw
-        qd = wu + alpha * zw * zu + 0.5 * beta * zu
-        qe = -wd - alpha * zw * zd - 0.5 * beta * zd
-        qf = ww + alpha * zw * zw + beta * zw + gamma
+        zw, qd, qe, qf = _row_ray_terms(cj0 + m * step * h - tip1, w0, w2, ag0, ag1, ag2,
+                                        dg0, dg1, dg2, zu, zd, alpha, beta, gamma)
         ok, ta, tb = _normal_sel(qa, qb, qc, qd, qe, qf, zw, zd, zlo, zhi, alpha)
         out_a[m] = ta
         out_b[m] = tb
@@ -403,15 +412,8 @@ def endpoint_row(  # type: ignore[no-untyped-def]
     inv_qa = 1.0 / qa
     inv_zu = 1.0 / zu
     for m in range(m0, m1):
-        cj = cj0 + m * step * h
-        w1 = cj - tip1
-        zw = ag0 * w0 + ag1 * w1 + ag2 * w2
-        wu = w2 - zw * zu
-        wd = w0 * dg0 + w1 * dg1 + w2 * dg2 - zw * zd
-        ww = w0 * w0 + w1 * w1 + w2 * w2 - zw * zw
-        qd = wu + alpha * zw * zu + 0.5 * beta * zu
-        qe = -wd - alpha * zw * zd - 0.5 * beta * zd
-        qf = ww + alpha * zw * zw + beta * zw + gamma
+        zw, qd, qe, qf = _row_ray_terms(cj0 + m * step * h - tip1, w0, w2, ag0, ag1, ag2,
+                                        dg0, dg1, dg2, zu, zd, alpha, beta, gamma)
         ok0, lo0, hi0, dlo0, dhi0 = _static_sel(0.0, qa, inv_qa, qb, qc, qd, qe, qf, zw,
                                                 inv_zu, zd, zlo, zhi)
         ok1, lo1, hi1, dlo1, dhi1 = _static_sel(1.0, qa, inv_qa, qb, qc, qd, qe, qf, zw,

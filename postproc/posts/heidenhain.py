@@ -134,9 +134,7 @@ class HeidenhainPost(GCodeWriter):
                         options: PostOptions) -> list[str]:
         if options.option("cycl32", "on") != "on":
             return []
-        rows = program.operation == index
-        simultaneous = bool(np.any(rows & (program.blocks.motion == Motion.LINEAR)
-                                   & (program.blocks.feed_mode == FeedMode.INVERSE_TIME)))
+        simultaneous = program.simultaneous(index)
         otol = np.degrees(options.angular_tolerance)
         return ["CYCL DEF 32.0 TOLERANCE", f"CYCL DEF 32.1 T{options.chordal_tolerance:g}",
                 f"CYCL DEF 32.2 HSC-MODE:{0 if simultaneous else 1} TA{otol:g}"]

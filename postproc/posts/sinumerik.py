@@ -36,7 +36,6 @@ from postproc.posts.frames import Swivel, swivel_segments
 from postproc.posts.gcode import GCodeWriter, _State, _Words
 from postproc.posts.numbers import quantise, word_bytes
 from postproc.posts.pathfeed import path_feeds
-from postproc.program import FeedMode, Motion
 
 if TYPE_CHECKING:
     from postproc.machine import Machine
@@ -122,9 +121,7 @@ class SinumerikPost(GCodeWriter):
                         options: PostOptions) -> list[str]:
         if options.option("cycle832", "on") != "on":
             return []
-        rows = program.operation == index
-        simultaneous = bool(np.any(rows & (program.blocks.motion == Motion.LINEAR)
-                                   & (program.blocks.feed_mode == FeedMode.INVERSE_TIME)))
+        simultaneous = program.simultaneous(index)
         mode = "_ORI_FINISH" if simultaneous else "_ORI_ROUGH"
         otol = np.degrees(options.angular_tolerance)
         return [f"CYCLE832({options.chordal_tolerance:g},{mode},{otol:g})"]
