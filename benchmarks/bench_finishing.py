@@ -184,6 +184,9 @@ def main() -> None:
     parser.add_argument("--child", type=Path, default=None, help=argparse.SUPPRESS)
     parser.add_argument("--tool", default=None, help=argparse.SUPPRESS)
     parser.add_argument("--options", default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--edge-passes", action="store_true",
+                        help="the new side also plans the edge passes (issue 28), which the "
+                             "baseline does not have: off, both sides do the same work")
     args = parser.parse_args()
     if args.child is not None:
         child(args.child, args.tool, json.loads(args.options))
@@ -215,8 +218,8 @@ def main() -> None:
                 if worktree is not None:
                     subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force",
                                     str(worktree)], check=False, capture_output=True)
-        sides["new"] = run_side(ROOT, work / "new", args.cache / "new", tool, options,
-                                args.passages)
+        sides["new"] = run_side(ROOT, work / "new", args.cache / "new", tool,
+                                dict(options, edge_passes=args.edge_passes), args.passages)
         print(f"{'side':<9} {'wall s':>8} {'cpu s':>8} {'points':>7} {'ms/pt wall':>10} "
               f"{'ms/pt cpu':>9} {'pt/s cpu':>8} {'A/C rev':>7} {'coll':>5} {'motion':>6} "
               f"{'links':>5} {'min clear':>9}")
