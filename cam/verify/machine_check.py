@@ -415,7 +415,7 @@ def check_program(scene: MachineScene, kins: Any, program: Any, name: str,
                      else turn.sum(axis=1) if solid.group == "C" else 0.0)
             moved[:, k] += solid.radius * angle
         state["offset"] = start
-        before = state["worst"]
+        worst_before = state["worst"]
         for pair in scene.pairs:
             motion = moved[:, pair[0]] + moved[:, pair[1]]
             for s, distance, before in _scan_pair(scene, poses, pair, centres, motion, state):
@@ -426,7 +426,7 @@ def check_program(scene: MachineScene, kins: Any, program: Any, name: str,
                 # distance the block started from
                 at_start = found.get(key, (math.inf, before))[1]
                 found[key] = (min(found.get(key, (math.inf, 0.0))[0], distance), at_start)
-        if state["worst"] is not None and state["worst"] != before:
+        if state["worst"] is not None and state["worst"] != worst_before:
             worst_joints = joints[state["worst"][0] - start].copy()
         previous = joints[-1].copy()
         state["last_centres"] = centres[-1].copy()

@@ -87,7 +87,21 @@ def test_same_events_at_corresponding_blocks(verified) -> None:  # type: ignore[
                 out.append((k, event["type"], block))
         return sorted(out)
 
-    reference = events(verified["linuxcnc"])
+    def split(found: list[tuple[int, str, int]]) -> tuple[list, list]:
+        machine_events = [e for e in found if e[1] == "machine_collision"]
+        return [e for e in found if e[1] != "machine_collision"], machine_events
+
+    reference, reference_machine = split(events(verified["linuxcnc"]))
     assert reference  # the coarse run reports something to compare
     for key, runs in verified.items():
-        assert events(runs) == reference, key
+        stock_events, machine_events = split(events(runs))
+        assert stock_events == reference, key
+        # a machine clearance crossed between two blocks is reported at the block that
+        # crosses it: the forms' block ends agree to the printed digits, so the crossing
+        # may fall one block earlier or later
+        assert len(machine_events) == len(reference_machine), key
+        for ours, others in ((machine_events, reference_machine),
+                             (reference_machine, machine_events)):
+            for event in ours:
+                assert any(e[0] == event[0] and abs(e[2] - event[2]) <= 1 for e in others), (
+                    key, event)

