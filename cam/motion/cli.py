@@ -228,9 +228,10 @@ def servo_command(
 
         report = simulate_program(read_nc(program), mach)
         data["program"] = report.as_dict()
-        lines.append(f"program: max tool-tip deviation "
-                     f"{data['program']['max_tip_deviation_mm']:.4f} mm at line "
-                     f"{data['program']['worst_line']}")
+        lines.append(f"program: max contour error "
+                     f"{data['program']['max_contour_error_mm']:.4f} mm at line "
+                     f"{data['program']['worst_line']} (RMS over feed "
+                     f"{data['program']['rms_contour_error_feed_mm']:.4f} mm)")
     _emit(data, as_json, lines)
 
 

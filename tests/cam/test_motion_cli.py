@@ -93,9 +93,10 @@ def test_servo_on_a_program(tmp_path: Path) -> None:
     data = _json(["servo", "--machine", str(MACHINE), "--omega", "3.14159",
                   "--program", str(nc)])
     program = data["program"]
-    assert program["max_tip_deviation_mm"] <= program["max_tracking_error_mm"] + 1e-12
-    assert program["reference_axis"] == "C" and program["ideal_axes"] == ["Z", "A"]
-    assert set(program["recommended_kffp_percent"]) == {"X", "Y", "C"}
+    assert program["max_contour_error_mm"] <= program["max_tracking_error_mm"] + 1e-12
+    assert program["reference_axis"] == "C"
+    assert program["axis_models"]["Z"] == "default: matched to Y"
+    assert set(program["recommended_kffp_percent"]) == {"X", "Y", "Z", "A", "C"}
 
 
 def test_identify_json() -> None:

@@ -8,9 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cam.motion.axis_models import machine_axis_models
 from cam.motion.cycle_time import index_moves_time, program_cycle_time
 from cam.motion.feeddrive import best_kffp
-from cam.motion.program_servo import program_joints, servo_axes, simulate_program
+from cam.motion.program_servo import program_joints, simulate_program
 from impeller_cam.errors import InputError
 from postproc.kinematics import kinematics_for
 from postproc.machine import load_machine
@@ -108,9 +109,9 @@ def test_program_servo_deviation_and_kffp(machine, sign: float) -> None:  # type
     # motion: the lag mismatch alpha - beta is all that moves it)
     program = _circle(machine, sign)
     report = simulate_program(program, machine)
-    assert report.ideal_axes == ["Z", "A"]
+    assert report.default_axes == ["Z", "A"]
     assert report.omega == pytest.approx(math.pi, rel=1e-6)  # C turns 2 pi in 2 s
-    axes = {a.name: a for a in servo_axes(machine).values()}
+    axes = machine_axis_models(machine).by_name()
     assert report.reference_axis == "C"
     assert report.recommended_kffp["X"] == pytest.approx(
         best_kffp(axes["C"], axes["X"], math.pi), rel=1e-9)
