@@ -2,9 +2,10 @@
 
 1. Joint targets: the program's joints; blocks under tool-centre-point control carry
    the tool tip, mapped to joints through the table-tilting-rotary kinematics.
-2. Commanded motion in time: blocks at their nominal times (length / feed; rapids at
-   the velocity limits, ``cycle_time``), joints interpolated linearly and sampled at
-   ``dt``. Acceleration and deceleration come from each axis's own smoothing filter
+2. Commanded motion in time: feed blocks at the interpolator's times (look-ahead
+   blending under the feed and the axes' limits, never faster than length / feed:
+   ``commanded_durations``), joints interpolated linearly and sampled at ``dt``;
+   rapids as rest-to-rest trapezoids at the axes' limits. Acceleration and deceleration come from each axis's own smoothing filter
    (Ts, the controller's acc/dec after interpolation) inside the feed-drive model. A
    rapid ends in position (the controls' in-position check after positioning): the
    command holds for ``settle_time`` after every rapid and before every rapid, so a
@@ -212,8 +213,8 @@ def commanded_motion(
     program: MachineProgram, machine: Machine, joints: NDArray[np.float64], dt: float,
     settle: float = 0.0, durations: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Sample the commanded joints at ``dt``: feed blocks at their nominal times
-    (constant speed), rapids as trapezoids at the machine's limits (``rapid_profiles``).
+    """Sample the commanded joints at ``dt``: feed blocks at constant speed over their
+    durations, rapids as trapezoids at the machine's limits (``rapid_profiles``).
 
     Parameters
     ----------
@@ -259,6 +260,23 @@ def commanded_motion(
     for c in range(knots_q.shape[1]):
         command[:, c] = np.interp(t, knots_t, knots_q[:, c])
     return t, command, ends
+
+
+def commanded_durations(program: MachineProgram, machine: Machine,
+                        joints: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Feed blocks' durations as the interpolator runs them, s.
+
+    The look-ahead blending time (``blending.blended_program_time``: the feed, the
+    axes' velocity, acceleration and jerk limits, corner speeds within ``G64 P``), never
+    below the nominal length / feed. A block whose nominal time would need more than
+    the machine's acceleration (a G93 block at ten times its neighbours' rate) is
+    stretched as the control stretches it.
+    """
+    from cam.motion.blending import blended_program_time
+
+    nominal = program_cycle_time(program, machine, joints).nominal
+    blended = blended_program_time(program, machine, joints).time
+    return np.maximum(nominal, blended)
 
 
 def _block_index(t: NDArray[np.float64], ends: NDArray[np.float64]) -> NDArray[np.int64]:
@@ -350,7 +368,7 @@ def simulate_program(
     axes = models.models
     joints = program_joints(program, machine)
     settle = settle_time(axes)
-    durations = program_cycle_time(program, machine, joints).nominal
+    durations = commanded_durations(program, machine, joints)
     t, command, ends = commanded_motion(program, machine, joints, dt, settle, durations)
     index = _block_index(t, ends)
     n = len(program)
