@@ -5,8 +5,9 @@
 2. Commanded motion in time: feed blocks at the interpolator's times (look-ahead
    blending under the feed and the axes' limits, never faster than length / feed:
    ``commanded_durations``), joints interpolated linearly and sampled at ``dt``;
-   rapids as rest-to-rest trapezoids at the axes' limits. Acceleration and deceleration come from each axis's own smoothing filter
-   (Ts, the controller's acc/dec after interpolation) inside the feed-drive model. A
+   rapids as rest-to-rest trapezoids at the axes' limits. Acceleration and
+   deceleration come from each axis's own smoothing filter (Ts, the controller's
+   acc/dec after interpolation) inside the feed-drive model. A
    rapid ends in position (the controls' in-position check after positioning): the
    command holds for ``settle_time`` after every rapid and before every rapid, so a
    rapid's corner is not cut into the following feed block.
