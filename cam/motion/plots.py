@@ -146,3 +146,31 @@ def plot_contour_map(
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     return _save(fig, path)
+
+
+def plot_circle_sweep(points: list[Any], path: str | Path) -> Path:
+    """Fig. 26's comparison: half-amplitude shape error vs omega, machine vs Best K_FFP.
+
+    Parameters
+    ----------
+    points : list of synchronisation.CirclePoint
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    for inertia in sorted({p.total_inertia for p in points}):
+        row = [p for p in points if p.total_inertia == inertia]
+        w = [p.omega / np.pi for p in row]
+        ax.plot(w, [1000.0 * p.machine_amplitude for p in row], "o-",
+                label=f"machine K_FFP, J+J1 = {inertia:.1f}")
+        ax.plot(w, [1000.0 * p.best_amplitude for p in row], "s--",
+                label=f"Best K_FFP, J+J1 = {inertia:.1f}")
+    ax.set_yscale("log")
+    ax.set_xlabel("omega / pi (rad/s)")
+    ax.set_ylabel("half-amplitude of the shape error, um")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, path)

@@ -157,3 +157,32 @@ def test_saturation_figures(circle) -> None:  # type: ignore[no-untyped-def]
         assert f.paper_torque > 725.0
         # the simulated drive saturates before the ideal follower (loop overshoot)
         assert f.model_omega < f.limit_omega < f.paper_omega
+
+
+def test_identify_drive_recovers_the_axis_from_the_fixture() -> None:
+    # the fixture is Table 1's C (J 4.2, C 5, Ta 15 ms, Tp 5 ms) + 0.001 deg noise;
+    # start 30 % / 100 % / 30 % / 50 % off and fit what the paper identifies
+    from dataclasses import replace
+
+    from cam.motion.identify import read_response_csv
+    from cam.motion.identify_drive import identify_drive
+
+    true = load_feed_drives(SUZUKI)["C"]
+    response = read_response_csv(ROOT / "fixtures" / "motion" / "feed_drive_response.csv")
+    start = replace(true, inertia=1.3 * true.inertia, viscous=2.0 * true.viscous,
+                    ta=0.7 * true.ta, tp=1.5 * true.tp)
+    fit = identify_drive(response, start)
+    assert fit.axis.ta == pytest.approx(true.ta, rel=0.01)
+    assert fit.axis.tp == pytest.approx(true.tp, rel=0.02)
+    assert fit.axis.inertia == pytest.approx(true.inertia, rel=0.02)
+    assert fit.axis.viscous == pytest.approx(true.viscous, rel=0.1)
+    assert fit.rms_residual == pytest.approx(1e-3, rel=0.1)  # down to the noise
+
+
+def test_identify_drive_needs_a_position() -> None:
+    from cam.motion.identify import read_response_csv
+    from cam.motion.identify_drive import identify_drive
+
+    response = read_response_csv(ROOT / "fixtures" / "motion" / "indexing_response.csv")
+    with pytest.raises(InputError, match="measured axis position"):
+        identify_drive(response, load_feed_drives(SUZUKI)["C"])
