@@ -177,6 +177,9 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
     finish = nc_programs(ctx, "finish")
     if not ctx.settings.servo or not finish:
         return {"program": None, "note": "servo prediction not asked"}
+    if not any(spec.servo for spec in machine.axes.values()):
+        return {"program": None, "note": "the machine file has no servo data (no "
+                "[axes.<NAME>.servo] table: nothing to model the axes on)"}
     models = machine_axis_models(machine)
     programs, tips, errors, tuned_errors = [], [], [], []
     for entry in finish:
