@@ -48,6 +48,8 @@ LABELS = {
     "max_deviation_best_kffp_mm": "Largest deviation with Best K_FFP (mm)",
     "rms_deviation_best_kffp_mm": "RMS deviation with Best K_FFP (mm)",
     "ideal_axes": "Axes without servo data (follow the command)",
+    "max_contour_um": "Largest contour error, all programs (um)",
+    "max_contour_best_kffp_um": "Largest contour error with Best K_FFP, all programs (um)",
     "kffp_machine": "Machine K_FFP (%)", "saturated": "Torque saturation", "note": "Note",
 }
 
