@@ -228,9 +228,10 @@ def servo_command(
 
         report = simulate_program(read_nc(program), mach)
         data["program"] = report.as_dict()
-        lines.append(f"program: max tool-tip deviation "
-                     f"{data['program']['max_tip_deviation_mm']:.4f} mm at line "
-                     f"{data['program']['worst_line']}")
+        lines.append(f"program: max contour error "
+                     f"{data['program']['max_contour_error_mm']:.4f} mm at line "
+                     f"{data['program']['worst_line']} (RMS over feed "
+                     f"{data['program']['rms_contour_error_feed_mm']:.4f} mm)")
     _emit(data, as_json, lines)
 
 
@@ -269,19 +270,36 @@ def time_command(
 
 @motion_app.command("identify")
 def identify_command(
-    plant: Annotated[Path, typer.Option("--plant", help="Plant TOML: starting values.")],
     response: Annotated[Path, typer.Option("--response", help="Measured response CSV.")],
+    plant: Annotated[
+        Path | None, typer.Option("--plant", help="Plant TOML: starting values (TDOF fit).")
+    ] = None,
+    machine: Annotated[
+        Path | None, typer.Option("--machine", "-m", help="Machine TOML (feed-drive fit).")
+    ] = None,
+    axis: Annotated[
+        str | None, typer.Option("--axis", help="Axis whose feed drive is fitted "
+                                 "(starting values: its servo table or the default).")
+    ] = None,
     free: Annotated[
         list[str] | None,
         typer.Option("--free", help="Parameter to fit (repeatable; default: stiffness, "
-                     "damping, servo_stiffness, servo_damping).")
+                     "damping, servo_stiffness, servo_damping; with --axis: J, C, Ta, Tp).")
     ] = None,
     as_json: JsonFlag = False,
 ) -> None:
-    """Fit TDOF plant parameters to a measured acceleration or position response."""
+    """Fit a TDOF plant (--plant) or an axis's feed drive (--machine, --axis) to a
+    measured response."""
     from cam.motion.identify import DEFAULT_FREE, identify, read_response_csv
     from cam.motion.plant import PARAMETERS, load_plant
+    from impeller_cam.errors import InputError
 
+    if axis is not None or machine is not None:
+        _identify_drive(response, machine, axis, free, as_json)
+        return
+    if plant is None:
+        raise InputError("nothing to fit", field="--plant",
+                         accepted="--plant PLANT.toml, or --machine M.toml --axis NAME")
     start, _ = load_plant(plant)
     fit = identify(read_response_csv(response), start, tuple(free) if free else DEFAULT_FREE)
     values = {name: float(getattr(fit.plant, name)) for name in PARAMETERS}
@@ -297,4 +315,92 @@ def identify_command(
     lines = ["[plant]"] + [f"{name} = {value:.6g}" for name, value in values.items()]
     lines.append(f"# relative RMS residual {fit.relative_rms:.4f}; modes "
                  + ", ".join(f"{f:.2f} Hz" for f in frequencies))
+    _emit(data, as_json, lines)
+
+
+def _identify_drive(response: Path, machine: Path | None, axis: str | None,
+                    free: list[str] | None, as_json: bool) -> None:
+    """``motion identify --machine --axis``: an [axes.N.servo] table from a response."""
+    from cam.motion.axis_models import machine_axis_models
+    from cam.motion.identify import read_response_csv
+    from cam.motion.identify_drive import DRIVE_FREE, identify_drive, servo_table
+    from impeller_cam.errors import InputError
+    from postproc.machine import load_machine
+
+    if machine is None or axis is None:
+        raise InputError("a feed-drive fit needs both --machine and --axis",
+                         field="--axis" if axis is None else "--machine",
+                         accepted="--machine M.toml --axis NAME")
+    mach = load_machine(machine)
+    models = machine_axis_models(mach)
+    named = models.by_name()
+    if axis not in named:
+        raise InputError("no such axis", file=machine, field="--axis", value=axis,
+                         accepted=", ".join(named))
+    fit = identify_drive(read_response_csv(response), named[axis],
+                         tuple(free) if free else DRIVE_FREE)
+    table = servo_table(fit.axis)
+    data: dict[str, Any] = {"axis": axis, "start": models.source[axis], "servo": table,
+                            "free": list(fit.free), "rms_residual": fit.rms_residual,
+                            "relative_rms": fit.relative_rms}
+    lines = [f"[axes.{axis}.servo]"] + [f"{k} = {v:.6g}" for k, v in table.items()]
+    lines.append(f"# fitted {', '.join(fit.free)} from {response.name} (start: "
+                 f"{models.source[axis]}); RMS residual {fit.rms_residual:.4g} "
+                 f"({'deg' if fit.axis.rotary else 'mm'}), relative {fit.relative_rms:.2e}")
+    _emit(data, as_json, lines)
+
+
+@motion_app.command("circle")
+def circle_command(
+    drives: Annotated[Path, typer.Option("--drives", help="Feed-drive TOML with a "
+                                         "[circle_test] table.")],
+    plot: Annotated[Path | None, typer.Option("--plot", help="Write the shape error vs "
+                                              "omega figure (PNG) here.")] = None,
+    as_json: JsonFlag = False,
+) -> None:
+    """The paper's circle test: shape error vs omega with machine and Best K_FFP, and the
+    torque-saturation figures (seed 004, Figs. 20-26)."""
+    from cam.motion.feeddrive import load_feed_drives
+    from cam.motion.schema import FeedDriveFile
+    from cam.motion.synchronisation import circle_sweep, saturation_figures
+    from cam.motion.tomlio import read_toml
+    from impeller_cam.errors import InputError
+    from impeller_cam.schema import validate
+
+    doc = validate(FeedDriveFile, read_toml(drives, "feed-drive"), drives)
+    test = doc.circle_test
+    if test is None:
+        raise InputError("no [circle_test] table", file=drives, field="circle_test",
+                         accepted="a [circle_test] table (docs/formats.md)")
+    axes = load_feed_drives(drives)
+    for name in (test.rotary, *test.linear):
+        if name not in axes:
+            raise InputError("the circle test names an axis the file does not give",
+                             file=drives, field="circle_test", value=name,
+                             accepted=", ".join(axes))
+    points = circle_sweep(axes, test)
+    saturation = saturation_figures(axes[test.rotary], test) if math.isfinite(
+        axes[test.rotary].torque_limit) else []
+    data: dict[str, Any] = {
+        "points": [{"total_inertia": p.total_inertia, "omega_rad_s": p.omega,
+                    "machine_amplitude_um": 1000.0 * p.machine_amplitude,
+                    "best_amplitude_um": 1000.0 * p.best_amplitude,
+                    "best_kffp_percent": p.best_kffp, "saturated": p.saturated}
+                   for p in points],
+        "saturation": [s.__dict__ for s in saturation],
+    }
+    lines = ["J + J1   omega (rad/s)  machine K_FFP  Best K_FFP  (half-amplitude, um)"]
+    lines += [f"{p.total_inertia:6.2f}  {p.omega:8.3f}  {1000 * p.machine_amplitude:12.2f}  "
+              f"{1000 * p.best_amplitude:10.2f}" + ("  saturated" if p.saturated else "")
+              for p in points]
+    for f in saturation:
+        lines.append(f"J + J1 = {f.total_inertia:.2f}: limit alone {f.limit_acceleration:.1f} "
+                     f"rad/s^2 (omega {f.limit_omega:.2f}); simulated drive saturates at "
+                     f"{f.model_omega:.2f} rad/s" + (f"; paper {f.paper_omega:g} rad/s, "
+                     f"{f.paper_acceleration:g} rad/s^2" if f.paper_omega else ""))
+    if plot is not None:
+        from cam.motion.plots import plot_circle_sweep
+
+        plot_circle_sweep(points, plot)
+        data["plot"] = str(plot)
     _emit(data, as_json, lines)

@@ -353,11 +353,17 @@ def simulate_axis(
         raise ValueError("command must be a 1-D array of at least 3 samples")
     reference = moving_average(theta_c, axis.ts, dt)
     averaged = moving_average(reference, axis.ta, dt)
-    ahead = int(round(axis.tp / dt))
-    # Pre-Control reads ``Tp`` ahead; past the last sample the command continues
-    # with its last slope (a program's last sample is a stop: slope 0)
+    # Pre-Control reads ``Tp`` ahead (linear interpolation between samples: exact for
+    # the piecewise-linear command; a multiple of dt reads samples); past the last
+    # sample the command continues with its last slope (a program's end is a stop)
+    shift = axis.tp / dt
+    whole = int(math.floor(shift))
+    frac = shift - whole
     slope = averaged[-1] - averaged[-2]
-    future = np.concatenate([averaged[ahead:], averaged[-1] + slope * np.arange(1, ahead + 1)])
+    extended = np.concatenate([averaged, averaged[-1] + slope * np.arange(1, whole + 2)])
+    n_cmd = len(averaged)
+    future = extended[whole:whole + n_cmd] * (1.0 - frac) + \
+        extended[whole + 1:whole + 1 + n_cmd] * frac
     v_ff = axis.k_ffp / 100.0 * np.gradient(future, dt)
     n = len(theta_c)
     position, torque = np.empty(n), np.empty(n)

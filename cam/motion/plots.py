@@ -6,6 +6,8 @@
 * ``plot_time_over_av``: for symmetric inputs (Amaxu = |Amaxd| = A), the shortest
   positioning time over S at each (A, Vmax) (the paper's Fig. 10 surface, drawn as a
   filled contour map with the optimum marked).
+* ``plot_contour_map``: the predicted contour error of the finishing programs on the
+  blade, per NC block in the meridional plane (issue 26).
 
 PNG files are written atomically.
 """
@@ -17,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from cam.motion.optimise import OptimisationResult
 from impeller_cam.atomic import write_bytes_atomic
@@ -96,5 +99,78 @@ def plot_time_over_av(result: OptimisationResult, path: str | Path) -> Path:
     ax.set_xlabel("Amaxu = |Amaxd|, mm/s$^2$")
     ax.set_ylabel("Vmax, mm/s")
     ax.legend(loc="lower right", fontsize=8)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_contour_map(
+    tips: list[NDArray[np.float64]], errors: list[NDArray[np.float64]],
+    tuned: list[NDArray[np.float64]] | None, hub: NDArray[np.float64],
+    shroud: NDArray[np.float64], path: str | Path, title: str,
+) -> Path:
+    """Contour error on the blade: feed blocks' tips in the meridional plane (r, z).
+
+    Parameters
+    ----------
+    tips : list of (n_i, 3) float64
+        Commanded tool tip of each feed block in the workpiece frame, mm (z the
+        impeller axis), one array per program.
+    errors, tuned : list of (n_i,) float64
+        Contour error per block with the machine's K_FFP and with the Best K_FFP, mm.
+    hub, shroud : (m, 2) float64
+        Meridional contours ``(z, r)``, mm, drawn for orientation.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    panels = [("machine K_FFP", errors)] + ([("Best K_FFP", tuned)] if tuned else [])
+    tip = np.concatenate(tips)
+    r, z = np.hypot(tip[:, 0], tip[:, 1]), tip[:, 2]
+    top = max(float(np.percentile(1000.0 * np.concatenate(errors), 99)), 1e-3)
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 4.4),
+                             squeeze=False, sharey=True)
+    for ax, (label, values) in zip(axes[0], panels, strict=True):
+        micron = 1000.0 * np.concatenate(values)
+        order = np.argsort(micron)  # the largest errors drawn last, on top
+        dots = ax.scatter(r[order], z[order], c=micron[order], s=2, cmap="viridis",
+                          vmin=0.0, vmax=top)
+        for contour, name in ((hub, "hub"), (shroud, "shroud")):
+            ax.plot(contour[:, 1], contour[:, 0], "k-", lw=0.8, label=name)
+        ax.set_xlabel("radius r, mm")
+        ax.set_title(f"{label}: max {micron.max():.1f} um")
+        ax.set_aspect("equal", adjustable="datalim")
+        fig.colorbar(dots, ax=ax, label="contour error, um (scale: 99th pct of machine)")
+    axes[0][0].set_ylabel("axial z, mm")
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_circle_sweep(points: list[Any], path: str | Path) -> Path:
+    """Fig. 26's comparison: half-amplitude shape error vs omega, machine vs Best K_FFP.
+
+    Parameters
+    ----------
+    points : list of synchronisation.CirclePoint
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    for inertia in sorted({p.total_inertia for p in points}):
+        row = [p for p in points if p.total_inertia == inertia]
+        w = [p.omega / np.pi for p in row]
+        ax.plot(w, [1000.0 * p.machine_amplitude for p in row], "o-",
+                label=f"machine K_FFP, J+J1 = {inertia:.1f}")
+        ax.plot(w, [1000.0 * p.best_amplitude for p in row], "s--",
+                label=f"Best K_FFP, J+J1 = {inertia:.1f}")
+    ax.set_yscale("log")
+    ax.set_xlabel("omega / pi (rad/s)")
+    ax.set_ylabel("half-amplitude of the shape error, um")
+    ax.legend(fontsize=7)
     fig.tight_layout()
     return _save(fig, path)

@@ -1,25 +1,33 @@
-"""Servo lag of a whole joint-space program, mapped to the tool tip (M6 on our programs).
+"""Contour error of a whole joint-space program at the tool tip (M6 on our programs).
 
 1. Joint targets: the program's joints; blocks under tool-centre-point control carry
    the tool tip, mapped to joints through the table-tilting-rotary kinematics.
-2. Commanded motion in time: blocks at their nominal times (length / feed; rapids at
-   the velocity limits, ``cycle_time``), joints interpolated linearly and sampled at
-   ``dt``. Acceleration and deceleration come from each axis's own smoothing filter
-   (Ts, the controller's acc/dec after interpolation) inside the feed-drive model.
-3. Every axis with servo parameters (``Machine.axes[n].servo``) is simulated through
-   its feed-drive model (``feeddrive.simulate_axis``, torque saturation included); axes
-   without servo data follow their command exactly (reported).
+2. Commanded motion in time: feed blocks at the interpolator's times (look-ahead
+   blending under the feed and the axes' limits, never faster than length / feed:
+   ``commanded_durations``), joints interpolated linearly and sampled at ``dt``;
+   rapids as rest-to-rest trapezoids at the axes' limits. Acceleration and
+   deceleration come from each axis's own smoothing filter (Ts, the controller's
+   acc/dec after interpolation) inside the feed-drive model. A
+   rapid ends in position (the controls' in-position check after positioning): the
+   command holds for ``settle_time`` after every rapid and before every rapid, so a
+   rapid's corner is not cut into the following feed block.
+3. Every axis is simulated through its feed-drive model (``feeddrive.simulate_axis``,
+   torque saturation included): identified from ``[axes.N.servo]`` or the stated
+   default (``cam.motion.axis_models``); no axis is a perfect follower.
 4. Commanded and simulated joints go through the machine's forward kinematics to tool
-   tips in the workpiece frame. Two deviations per sample: the *tracking* error (the
-   distance to the commanded tip at the same instant: a common lag of all axes shows
-   here but leaves no mark) and the *contour* error (the distance to the commanded
-   tip path, searched over a window of commanded samples around the instant as long
-   as the axes' lag): the as-machined error. Both are reported per block (largest over
-   the samples of the block).
+   tips and tool axes in the workpiece frame. Per sample: the *contour* error, the
+   distance of the simulated tip from the commanded tip *path* (the closest point of
+   the commanded polyline in a window of samples around the instant as long as the
+   axes' lag: the normal deviation; a lag along the path is not a shape error), the
+   *tool-axis* error, the angle between the simulated tool axis and the commanded one
+   at that closest point, degrees, and the *tracking* error (distance from the
+   commanded tip at the same instant: a common lag shows here but leaves no mark).
+   Per block the largest of each over the block's samples.
 5. K_FFP recommendation: the Best K_FFP method generalised to a program. The reference
-   is the rotary axis that lags most (largest ``alpha_th / omega``); every other servo
-   axis gets the K_FFP whose phase lag at the program's characteristic angular
-   frequency equals the reference's ramp lag. The characteristic frequency is the RMS
+   is the rotary axis that lags most (largest ``alpha_th / omega``); every linear axis
+   gets the K_FFP whose phase lag at the program's characteristic angular frequency
+   equals the reference's ramp lag, every other rotary axis the K_FFP that gives it
+   the reference's ramp lag. The characteristic frequency is the RMS
    angular velocity of the rotary axes during feed blocks (a point on a table turning
    at omega moves X/Y sinusoidally at omega).
 """
@@ -30,12 +38,12 @@ import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from cam.motion.axis_models import AxisModels, machine_axis_models
 from cam.motion.cycle_time import program_cycle_time, rotary_mask
-from cam.motion.feeddrive import FeedDriveAxis, alpha_th, axis_from_servo, best_kffp, simulate_axis
+from cam.motion.feeddrive import FeedDriveAxis, alpha_th, best_kffp, simulate_axis
 from impeller_cam.errors import InputError
 from postproc.program import MachineProgram, Motion
 
@@ -69,60 +77,80 @@ def program_joints(program: MachineProgram, machine: Machine) -> NDArray[np.floa
     return joints
 
 
-def servo_axes(machine: Machine) -> dict[int, FeedDriveAxis]:
-    """Feed-drive models of the axes with servo data, keyed by joint column."""
-    out = {}
-    for column, spec in enumerate(machine.axes.values()):
-        if spec.servo:
-            out[column] = axis_from_servo(spec.name, dict(spec.servo), spec.rotary,
-                                          machine.source)
-    return out
+def settle_time(models: dict[int, FeedDriveAxis]) -> float:
+    """Time the axes need to come into position after a stop, s.
+
+    ``Ts + Ta + 4 / Kpp`` of the slowest axis: the smoothing and averaging windows
+    pass, then four position-loop time constants (e^-4 < 2 %).
+    """
+    return max([a.ts + a.ta + 4.0 / a.kpp for a in models.values()], default=0.0)
 
 
 @dataclass
 class ServoReport:
-    """Predicted servo lag of a program.
+    """Predicted contour error of a program, every axis modelled.
 
     Attributes
     ----------
     line : (n,) int64
         Source line of each block.
     deviation : (n,) float64
-        Largest contour error (distance of the simulated tip from the commanded tip
-        path) inside each block, mm.
+        Largest contour error (normal distance of the simulated tip from the commanded
+        tip path) inside each block, mm.
+    tool_axis : (n,) float64
+        Largest tool-axis error inside each block, degrees.
     tracking : (n,) float64
         Largest tracking error (distance from the commanded tip at the same instant)
         inside each block, mm.
+    tip : (n, 3) float64
+        Commanded tool tip at each block's end, workpiece frame, mm.
+    feed_rms : float
+        RMS contour error over the samples of feed blocks, mm.
     axis_lag : dict of str -> float
-        Largest |command - actual| per simulated axis (mm or rad).
+        Largest |command - actual| per axis (mm or rad).
     saturated : dict of str -> bool
-        Axis hit its torque limit somewhere.
+        Axis hit its torque limit during a feed block (a rapid may saturate: it ends
+        in position before the next cut).
     recommended_kffp : dict of str -> float or None
         Best K_FFP per axis, percent (None: no K_FFP in range matches).
-    deviation_recommended : (n,) float64 or None
-        The per-block contour error again with the recommended K_FFP.
+    deviation_recommended, tool_axis_recommended : (n,) float64 or None
+        The per-block contour and tool-axis errors again with the recommended K_FFP.
+    feed_rms_recommended : float or None
     omega : float
         Characteristic angular frequency used for the recommendation, rad/s.
-    ideal_axes : list of str
-        Axes without servo data (assumed to follow the command).
+    reference_axis : str or None
+    model_source : dict of str -> str
+        Per axis: ``"identified"`` or the default it got (``axis_models``).
     """
 
     line: NDArray[np.int64]
     deviation: NDArray[np.float64]
+    tool_axis: NDArray[np.float64]
     tracking: NDArray[np.float64]
+    tip: NDArray[np.float64]
+    feed_rms: float
     axis_lag: dict[str, float]
     saturated: dict[str, bool]
     recommended_kffp: dict[str, float | None]
     deviation_recommended: NDArray[np.float64] | None
+    tool_axis_recommended: NDArray[np.float64] | None
+    feed_rms_recommended: float | None
     omega: float
     reference_axis: str | None
-    ideal_axes: list[str] = field(default_factory=list)
+    model_source: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def default_axes(self) -> list[str]:
+        """Axes modelled by the stated default (no servo data in the machine file)."""
+        return [n for n, s in self.model_source.items() if s != "identified"]
 
     def as_dict(self) -> dict[str, object]:
         """JSON-ready summary (per-block arrays as worst lines)."""
         worst = int(np.argmax(self.deviation)) if len(self.deviation) else -1
         out: dict[str, object] = {
-            "max_tip_deviation_mm": float(self.deviation.max()) if worst >= 0 else 0.0,
+            "max_contour_error_mm": float(self.deviation.max()) if worst >= 0 else 0.0,
+            "rms_contour_error_feed_mm": self.feed_rms,
+            "max_tool_axis_error_deg": float(self.tool_axis.max()) if worst >= 0 else 0.0,
             "max_tracking_error_mm": float(self.tracking.max()) if worst >= 0 else 0.0,
             "worst_line": int(self.line[worst]) if worst >= 0 else None,
             "axis_lag": self.axis_lag,
@@ -130,31 +158,101 @@ class ServoReport:
             "recommended_kffp_percent": self.recommended_kffp,
             "omega_rad_s": self.omega,
             "reference_axis": self.reference_axis,
-            "ideal_axes": self.ideal_axes,
+            "axis_models": self.model_source,
         }
         if self.deviation_recommended is not None and len(self.deviation_recommended):
-            out["max_tip_deviation_recommended_mm"] = float(self.deviation_recommended.max())
+            out["max_contour_error_recommended_mm"] = float(self.deviation_recommended.max())
+            out["rms_contour_error_feed_recommended_mm"] = self.feed_rms_recommended
         return out
 
 
+#: Fractions of a rapid's duration at which its trapezoid is sampled as knots.
+RAPID_SHAPE = np.linspace(0.0, 1.0, 33)[1:-1]
+
+
+def rapid_profiles(delta: NDArray[np.float64], machine: Machine
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Rest-to-rest trapezoids of rapid blocks at the machine's limits.
+
+    The path parameter ``u`` (0..1) is bounded by ``v_k / |dq_k|`` and
+    ``a_k / |dq_k|`` over the axes; the block accelerates at the bound, cruises,
+    decelerates (a triangle when the cruise speed is not reached).
+
+    Parameters
+    ----------
+    delta : (r, 5) float64
+        Joint change of each rapid, mm and rad.
+
+    Returns
+    -------
+    duration : (r,) float64
+        s.
+    shape : (r, len(RAPID_SHAPE)) float64
+        ``u`` at the times ``RAPID_SHAPE * duration``.
+    """
+    from cam.motion.cycle_time import axis_limits
+
+    vel, acc, _ = axis_limits(machine)
+    size = np.abs(delta)
+    with np.errstate(divide="ignore"):
+        v = np.min(np.where(size > 0, vel / size, np.inf), axis=1)
+        a = np.min(np.where(size > 0, acc / size, np.inf), axis=1)
+    moving = np.isfinite(v)
+    v, a = np.where(moving, v, 1.0), np.where(moving, a, 1.0)
+    v = np.minimum(v, np.sqrt(a))  # a triangle when the cruise speed is not reached
+    ramp = v / a
+    duration = np.where(moving, 1.0 / v + ramp, 0.0)
+    t = RAPID_SHAPE[None, :] * duration[:, None]
+    left = np.maximum(duration[:, None] - t, 0.0)
+    u = np.where(t < ramp[:, None], 0.5 * a[:, None] * t**2,
+                 np.where(left < ramp[:, None], 1.0 - 0.5 * a[:, None] * left**2,
+                          0.5 * v[:, None] * ramp[:, None] + v[:, None] * (t - ramp[:, None])))
+    return duration, np.clip(u, 0.0, 1.0)
+
+
 def commanded_motion(
-    program: MachineProgram, machine: Machine, joints: NDArray[np.float64], dt: float
+    program: MachineProgram, machine: Machine, joints: NDArray[np.float64], dt: float,
+    settle: float = 0.0, durations: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Sample the commanded joints at ``dt`` with blocks at their nominal times.
+    """Sample the commanded joints at ``dt``: feed blocks at constant speed over their
+    durations, rapids as trapezoids at the machine's limits (``rapid_profiles``).
+
+    Parameters
+    ----------
+    settle : float
+        In-position hold, s, added after every rapid block and every block followed
+        by a rapid (counted to that block).
+    durations : (n,) float64, optional
+        Nominal block times, s (default: ``program_cycle_time(...).nominal``).
 
     Returns
     -------
     time : (m,) float64
     command : (m, 5) float64
     block_end : (n,) float64
-        End time of each block, s.
+        End time of each block (hold included), s.
     """
-    times = program_cycle_time(program, machine, joints).nominal
-    ends = np.cumsum(times)
-    knots_t = np.concatenate([[0.0], ends])
-    knots_q = np.vstack([program.start[None, :], joints])
+    times = program_cycle_time(program, machine, joints).nominal if durations is None \
+        else durations
+    rapid = program.motion == Motion.RAPID
+    times = times.copy()
+    path = np.vstack([program.start[None, :], joints])
+    shape = np.zeros((len(joints), len(RAPID_SHAPE)))
+    if rapid.any():
+        times[rapid], shape[rapid] = rapid_profiles(np.diff(path, axis=0)[rapid], machine)
+    stop = rapid | np.concatenate([rapid[1:], [False]])
+    ends = np.cumsum(times + settle * stop)
+    begin = np.concatenate([[0.0], ends[:-1]])
+    # knots: inside each block (rapids follow their trapezoid), its arrival, its hold
+    inner_t = begin[:, None] + RAPID_SHAPE[None, :] * times[:, None]
+    inner_q = path[:-1, None, :] + shape[:, :, None] * (path[1:, None, :] - path[:-1, None, :])
+    keep = np.broadcast_to(rapid[:, None], shape.shape)
+    knots_t = np.concatenate([[0.0], inner_t[keep], begin + times, ends])
+    knots_q = np.vstack([program.start[None, :], inner_q[keep], joints, joints])
+    order = np.argsort(knots_t, kind="stable")
+    knots_t, knots_q = knots_t[order], knots_q[order]
     tail = 0.5  # let the axes settle after the last block
-    m = int(math.ceil((knots_t[-1] + tail) / dt)) + 1
+    m = int(math.ceil((ends[-1] + tail) / dt)) + 1
     if m * 5 > MAX_SAMPLES:
         raise InputError("program too long to simulate at this step", field="dt",
                          value=dt, accepted=f"a larger step (needs {m} samples)")
@@ -165,69 +263,60 @@ def commanded_motion(
     return t, command, ends
 
 
-def _block_max(values: NDArray[np.float64], t: NDArray[np.float64],
-               ends: NDArray[np.float64]) -> NDArray[np.float64]:
-    index = np.searchsorted(ends, t, side="left")
-    index = np.minimum(index, len(ends) - 1)
-    out = np.zeros(len(ends))
+def commanded_durations(program: MachineProgram, machine: Machine,
+                        joints: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Feed blocks' durations as the interpolator runs them, s.
+
+    The look-ahead blending time (``blending.blended_program_time``: the feed, the
+    axes' velocity, acceleration and jerk limits, corner speeds within ``G64 P``), never
+    below the nominal length / feed. A block whose nominal time would need more than
+    the machine's acceleration (a G93 block at ten times its neighbours' rate) is
+    stretched as the control stretches it.
+    """
+    from cam.motion.blending import blended_program_time
+
+    nominal = program_cycle_time(program, machine, joints).nominal
+    blended = blended_program_time(program, machine, joints).time
+    return np.maximum(nominal, blended)
+
+
+def _block_index(t: NDArray[np.float64], ends: NDArray[np.float64]) -> NDArray[np.int64]:
+    return np.minimum(np.searchsorted(ends, t, side="left"), len(ends) - 1)
+
+
+def _block_max(values: NDArray[np.float64], index: NDArray[np.int64], n: int
+               ) -> NDArray[np.float64]:
+    out = np.zeros(n)
     np.maximum.at(out, index, values)
     return out
 
 
-@numba.njit(cache=True)
-def _contour_distance(
-    command: NDArray[np.float64], actual: NDArray[np.float64], back: int, ahead: int,
-    out: NDArray[np.float64],
-) -> None:  # pragma: no cover - compiled
-    m = command.shape[0]
-    for k in range(m):
-        best = np.inf
-        lo = max(k - back, 0)
-        hi = min(k + ahead, m - 1)
-        px, py, pz = actual[k, 0], actual[k, 1], actual[k, 2]
-        for j in range(lo, max(hi, lo + 1)):
-            j1 = min(j + 1, m - 1)
-            ax, ay, az = command[j, 0], command[j, 1], command[j, 2]
-            dx, dy, dz = command[j1, 0] - ax, command[j1, 1] - ay, command[j1, 2] - az
-            length2 = dx * dx + dy * dy + dz * dz
-            u = 0.0
-            if length2 > 0.0:
-                u = ((px - ax) * dx + (py - ay) * dy + (pz - az) * dz) / length2
-                u = min(max(u, 0.0), 1.0)
-            ex, ey, ez = px - ax - u * dx, py - ay - u * dy, pz - az - u * dz
-            dist = ex * ex + ey * ey + ez * ez
-            if dist < best:
-                best = dist
-        out[k] = np.sqrt(best)
-
-
-def _deviations(
-    machine: Machine, command: NDArray[np.float64], actual: NDArray[np.float64],
-    window: int,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Contour and tracking error of every sample, mm."""
-    from postproc.kinematics import kinematics_for
-
-    kins = kinematics_for(machine)
-    tip_c, _ = kins.forward(command)
-    tip_a, _ = kins.forward(actual)
-    contour = np.empty(len(tip_c))
-    _contour_distance(np.ascontiguousarray(tip_c), np.ascontiguousarray(tip_a), window,
-                      max(window // 4, 1), contour)
-    return contour, np.linalg.norm(tip_a - tip_c, axis=1)
-
-
 def recommend_kffp(
-    axes: dict[int, FeedDriveAxis], omega: float
+    axes: dict[int, FeedDriveAxis], omega: float,
+    source: dict[str, str] | None = None,
 ) -> tuple[dict[str, float | None], str | None]:
-    """Best K_FFP per axis against the most lagging rotary axis (see module doc)."""
+    """Best K_FFP per axis against the most lagging rotary axis.
+
+    The reference is the rotary axis with the largest ramp lag per unit speed
+    (an identified axis before a default one of equal lag). Linear axes get the
+    Best K_FFP of Eq. (20) at ``omega``; other rotary axes, which turn in ramps like
+    the reference, get the K_FFP that gives them the reference's ramp lag
+    (``Ts / 2 + (1 - K / 100) / Kpp`` equal; None when outside 0..200 %).
+    """
     rotaries = [a for a in axes.values() if a.rotary]
     if not rotaries:
         return {a.name: None for a in axes.values()}, None
-    reference = max(rotaries, key=lambda a: float(alpha_th(a, 1.0)))
+    given = source or {}
+    reference = max(rotaries, key=lambda a: (float(alpha_th(a, 1.0)),
+                                             given.get(a.name, "identified") == "identified"))
+    lag = float(alpha_th(reference, 1.0))
     out: dict[str, float | None] = {reference.name: reference.k_ffp}
     for axis in axes.values():
         if axis is reference:
+            continue
+        if axis.rotary:
+            k = 100.0 * (1.0 - (lag - axis.ts / 2.0) * axis.kpp)
+            out[axis.name] = k if 0.0 <= k <= 200.0 else None
             continue
         try:
             out[axis.name] = best_kffp(reference, axis, omega)
@@ -236,75 +325,96 @@ def recommend_kffp(
     return out, reference.name
 
 
+def characteristic_omega(program: MachineProgram, machine: Machine,
+                         joints: NDArray[np.float64], durations: NDArray[np.float64]
+                         ) -> float:
+    """RMS angular velocity of the rotary axes over feed blocks, rad/s (module doc)."""
+    rotary = rotary_mask(machine)
+    feed_rows = program.motion == Motion.LINEAR
+    steps = np.diff(np.vstack([program.start[None, :], joints]), axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rates = np.where(durations[:, None] > 0, steps / durations[:, None], 0.0)[:, rotary]
+    weights = durations * feed_rows
+    if weights.sum() > 0 and rates.size:
+        return float(np.sqrt(np.sum(weights[:, None] * rates**2) / weights.sum()))
+    return 0.0
+
+
 def simulate_program(
     program: MachineProgram, machine: Machine, dt: float = PROGRAM_DT,
-    recommend: bool = True,
+    recommend: bool = True, models: AxisModels | None = None,
 ) -> ServoReport:
-    """Simulate every servo axis of ``program`` and predict the tool-tip deviation.
+    """Simulate every axis of ``program`` and predict the contour error at the tool.
 
     Parameters
     ----------
     program : MachineProgram
     machine : Machine
-        With ``servo`` tables on the axes to simulate.
     dt : float
         Controller period, s.
     recommend : bool
-        Also compute the Best K_FFP per axis and the deviation with it.
+        Also compute the Best K_FFP per axis and the contour error with it.
+    models : AxisModels, optional
+        The axes' feed-drive models (default: ``machine_axis_models(machine)``).
 
     Returns
     -------
     ServoReport
     """
+    from cam.motion.contour import contour_error
+
     if len(program) == 0:
         raise InputError("the program has no motion blocks", field="program")
-    axes = servo_axes(machine)
-    names = list(machine.axes)
+    models = machine_axis_models(machine) if models is None else models
+    axes = models.models
     joints = program_joints(program, machine)
-    t, command, ends = commanded_motion(program, machine, joints, dt)
+    settle = settle_time(axes)
+    durations = commanded_durations(program, machine, joints)
+    t, command, ends = commanded_motion(program, machine, joints, dt, settle, durations)
+    index = _block_index(t, ends)
+    n = len(program)
+    feed_samples = (program.motion == Motion.LINEAR)[index]
+    window = int(math.ceil(settle / dt)) + 1
 
-    def run(models: dict[int, FeedDriveAxis]) -> tuple[NDArray[np.float64], dict[str, bool]]:
+    def run(chosen: dict[int, FeedDriveAxis]) -> tuple[NDArray[np.float64], dict[str, bool]]:
         actual = command.copy()
         saturated = {}
-        for column, model in models.items():
+        for column, model in chosen.items():
             response = simulate_axis(model, command[:, column], dt)
             actual[:, column] = response.position
-            saturated[model.name] = bool(response.saturated.any())
+            saturated[model.name] = bool(response.saturated[feed_samples].any())
         return actual, saturated
 
-    actual, saturated = run(axes)
-    lag_time = max([a.ts + a.ta + 4.0 / a.kpp for a in axes.values()], default=0.0)
-    window = int(math.ceil(lag_time / dt)) + 1
-    contour, tracking = _deviations(machine, command, actual, window)
-    deviation = _block_max(contour, t, ends)
-    lag = {axes[c].name: float(np.max(np.abs(actual[:, c] - command[:, c]))) for c in axes}
+    def rms(values: NDArray[np.float64]) -> float:
+        return float(np.sqrt(np.mean(values[feed_samples] ** 2))) if feed_samples.any() \
+            else 0.0
 
-    rotary = rotary_mask(machine)
-    feed_rows = program.motion == Motion.LINEAR
-    durations = np.diff(np.concatenate([[0.0], ends]))
-    steps = np.diff(np.vstack([program.start[None, :], joints]), axis=0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rates = np.where(durations[:, None] > 0, steps / durations[:, None], 0.0)[:, rotary]
-    weights = durations * feed_rows
-    omega = 0.0
-    if weights.sum() > 0 and rates.size:
-        omega = float(np.sqrt(np.sum(weights[:, None] * rates**2) / weights.sum()))
+    actual, saturated = run(axes)
+    error = contour_error(machine, command, actual, window)
+    lag = {axes[c].name: float(np.max(np.abs(actual[:, c] - command[:, c]))) for c in axes}
+    omega = characteristic_omega(program, machine, joints, durations)
     recommended: dict[str, float | None] = {}
     reference = None
-    deviation_rec = None
-    if recommend and axes and omega > 0.0:
-        recommended, reference = recommend_kffp(axes, omega)
-        tuned = {}
-        for column, model in axes.items():
-            value = recommended.get(model.name)
-            tuned[column] = model if value is None else model.with_kffp(value)
-        actual_rec, _ = run(tuned)
-        deviation_rec = _block_max(_deviations(machine, command, actual_rec, window)[0], t,
-                                   ends)
+    tuned_error = None
+    if recommend and omega > 0.0:
+        recommended, reference = recommend_kffp(axes, omega, models.source)
+        tuned = {c: m if recommended.get(m.name) is None else
+                 m.with_kffp(float(recommended[m.name]))  # type: ignore[arg-type]
+                 for c, m in axes.items()}
+        tuned_error = contour_error(machine, command, run(tuned)[0], window)
+    from postproc.kinematics import kinematics_for
+
+    tip, _ = kinematics_for(machine).forward(joints)
     return ServoReport(
-        line=program.line.copy(), deviation=deviation,
-        tracking=_block_max(tracking, t, ends), axis_lag=lag, saturated=saturated,
-        recommended_kffp=recommended, deviation_recommended=deviation_rec, omega=omega,
-        reference_axis=reference,
-        ideal_axes=[names[c] for c in range(len(names)) if c not in axes],
+        line=program.line.copy(), deviation=_block_max(error.contour, index, n),
+        tool_axis=_block_max(error.tool_axis, index, n),
+        tracking=_block_max(error.tracking, index, n), tip=tip,
+        feed_rms=rms(error.contour), axis_lag=lag, saturated=saturated,
+        recommended_kffp=recommended,
+        deviation_recommended=None if tuned_error is None else
+        _block_max(tuned_error.contour, index, n),
+        tool_axis_recommended=None if tuned_error is None else
+        _block_max(tuned_error.tool_axis, index, n),
+        feed_rms_recommended=None if tuned_error is None else rms(tuned_error.contour),
+        omega=omega, reference_axis=reference, model_source=dict(models.source),
     )

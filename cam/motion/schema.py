@@ -14,7 +14,8 @@ from pydantic import Field
 
 from impeller_cam.schema import Strict, quantity
 
-__all__ = ["FeedDriveFile", "FeedDriveServo", "PlantFile", "PlantTable", "SettlingTable"]
+__all__ = ["CircleTestTable", "FeedDriveFile", "FeedDriveServo", "PlantFile", "PlantTable",
+           "SettlingTable"]
 
 AxisName = Literal["X", "Y", "Z", "A", "B", "C"]
 
@@ -66,9 +67,29 @@ class FeedDriveServo(Strict):
     screw_lead: float | None = quantity(None, unit="mm", gt=0, description="ball-screw lead")
 
 
+class CircleTestTable(Strict):
+    """``[circle_test]``: the circle-with-rotary test of Suzuki et al. (seed 004, sec. 3)."""
+
+    rotary: AxisName = quantity("C", description="the turning table's axis")
+    linear: list[AxisName] = quantity(["X", "Y"], min_length=2, max_length=2,
+                                      description="the axes moving the tool: x then y")
+    r_c: float = quantity(5.0, unit="mm", gt=0, description="workpiece radius R_C")
+    r_w: float = quantity(8.0, unit="mm", gt=0, description="tool-centre offset R_W")
+    omega: list[float] = quantity(min_length=1, unit="rad/s",
+                                  description="angular velocities of the table (each > 0)")
+    load_inertia: list[float] = quantity(min_length=1, unit="kg m^2",
+                                         description="load inertias J1 of the rotary axis")
+    paper_saturation_omega: list[float] | None = quantity(
+        None, unit="rad/s", description="reported saturation velocities, per J1 (compare)")
+    paper_saturation_acceleration: list[float] | None = quantity(
+        None, unit="rad/s^2", description="reported saturation accelerations, per J1")
+
+
 class FeedDriveFile(Strict):
     """A feed-drive TOML: ``[axes.X]`` tables of servo parameters."""
 
     name: str | None = quantity(None, description="free text")
     axes: dict[AxisName, FeedDriveServo] = quantity(min_length=1,
                                                     description="axes X, Y, Z, A, B, C")
+    circle_test: CircleTestTable | None = quantity(
+        None, description="the paper's circle test on these axes (motion circle)")

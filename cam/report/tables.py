@@ -48,6 +48,8 @@ LABELS = {
     "max_deviation_best_kffp_mm": "Largest deviation with Best K_FFP (mm)",
     "rms_deviation_best_kffp_mm": "RMS deviation with Best K_FFP (mm)",
     "ideal_axes": "Axes without servo data (follow the command)",
+    "max_contour_um": "Largest contour error, all programs (um)",
+    "max_contour_best_kffp_um": "Largest contour error with Best K_FFP, all programs (um)",
     "kffp_machine": "Machine K_FFP (%)", "saturated": "Torque saturation", "note": "Note",
 }
 
@@ -347,8 +349,25 @@ def _indexing_body(folder: RunFolder, document: dict[str, Any]) -> list[str]:
 
 
 def servo_section(folder: RunFolder) -> Section:
-    """Section 10: predicted servo (contour) deviation of the finishing program."""
-    return _motion_part(folder, "servo", "Predicted servo deviation", _servo_body)
+    """Section 10: predicted contour error of the finishing programs (all axes modelled).
+
+    A result from a partly modelled machine (an older ``motion.json`` whose
+    ``ideal_axes`` followed their command) is not shown: its numbers and figure turn
+    the modelled axes' lag into contour error.
+    """
+    title = "Predicted servo deviation"
+    motion = folder.json("motion/motion.json")
+    document = motion.get("servo") if isinstance(motion, dict) else None
+    if isinstance(document, dict) and document.get("ideal_axes"):
+        axes = ", ".join(str(a) for a in document["ideal_axes"])
+        text = (f"motion/motion.json \"servo\" comes from a partly modelled machine (axes "
+                f"{axes} followed their command): not shown; rerun the motion stage")
+        return Section("servo", title, missing(text), [text])
+    return _motion_part(folder, "servo", title, _servo_body)
+
+
+def _um(value: Any) -> Cell:
+    return float(value) if isinstance(value, int | float) else None
 
 
 def _servo_body(folder: RunFolder, document: dict[str, Any]) -> list[str]:
@@ -356,25 +375,39 @@ def _servo_body(folder: RunFolder, document: dict[str, Any]) -> list[str]:
     if document.get("program") is None:
         reason = document.get("note") or "no program simulated"
         parts.append(missing(f"No servo prediction: {reason} (motion/motion.json \"servo\")"))
-    best, machine = document.get("kffp_best"), document.get("kffp_machine")
-    skip: tuple[str, ...] = ("plot", "plots")
-    if isinstance(best, dict) and best:
-        saturated = document.get("saturated") if isinstance(document.get("saturated"),
-                                                            dict) else {}
-        axes = list(best) + [a for a in (machine or {}) if a not in best]
-        # saturation as plain text: True is the bad case, not a passed check
-        rows: list[list[Cell]] = [[str(a), (machine or {}).get(a), best.get(a),
-                                   _yes_no((saturated or {}).get(a))] for a in axes]
-        parts.append(table(["Axis", "Machine K_FFP (%)", "Best K_FFP (%)",
-                            "Torque saturation"], rows, digits=(0, 2, 2, 0)))
-        skip += ("kffp_best", "kffp_machine", "saturated")
-    parts.append(definition_table(flat_rows(document, skip=skip), digits=4))
-    parts += record_tables(document)
-    parts.append(note("From motion/motion.json \"servo\": the finishing program run through "
-                      "the machine's feed-drive models (position loop, velocity feed-forward "
-                      "K_FFP); deviation = distance of the simulated tool tip from the "
-                      "commanded path; Best K_FFP matches each axis' lag to the reference "
-                      "(most lagging rotary) axis."))
+        return parts
+    programs = document.get("programs")
+    if isinstance(programs, list) and programs:
+        rows: list[list[Cell]] = []
+        for p in programs:
+            if not isinstance(p, dict):
+                continue
+            rows.append([str(p.get("program")), _um(p.get("max_contour_um")),
+                         _um(p.get("rms_contour_um")), _um(p.get("median_contour_um")),
+                         _um(p.get("max_contour_best_kffp_um")),
+                         _um(p.get("rms_contour_best_kffp_um")),
+                         _um(p.get("median_contour_best_kffp_um")),
+                         _um(p.get("max_tool_axis_deg")), p.get("worst_line"),
+                         ", ".join(p.get("saturated_in_feed") or []) or "none"])
+        parts.append(table(["Program", "Max (um)", "RMS (um)", "Median (um)",
+                            "Max, Best K_FFP (um)", "RMS, Best K_FFP (um)",
+                            "Median, Best K_FFP (um)", "Max tool axis (deg)", "Worst line",
+                            "Torque saturation in feed"], rows,
+                           digits=(0, 1, 1, 1, 1, 1, 1, 3, 0, 0)))
+    models, machine = document.get("axis_models"), document.get("kffp_machine")
+    if isinstance(models, dict) and models:
+        parts.append(table(["Axis", "Feed-drive model", "Machine K_FFP (%)"],
+                           [[str(a), str(src), (machine or {}).get(a)]
+                            for a, src in models.items()], digits=(0, 0, 2)))
+    parts.append(definition_table(flat_rows(document, skip=(
+        "plot", "plots", "programs", "axis_models", "kffp_machine")), digits=4))
+    parts.append(note("From motion/motion.json \"servo\": every finishing program run "
+                      "through the feed-drive models of all five axes (position loop, "
+                      "Pre-Control K_FFP, velocity PI, torque limit); contour error = "
+                      "distance of the simulated tool tip from the commanded tip path, "
+                      "normal to it, largest per NC line (per line in motion/contour_*.csv); "
+                      "Best K_FFP matches each axis' lag to the most lagging rotary axis. "
+                      "The map shows each feed block's tip in the meridional plane."))
     return parts
 
 

@@ -16,9 +16,11 @@
   5,000, V 200..500 step 50: 4,200 profiles, seconds) - ``indexing_grid = "paper"``
   searches the paper's 4.8 million. Case I, best symmetric and best asymmetric
   positioning times; the chosen profile is the best asymmetric one.
-* Servo: the feed-drive prediction (M6, ``cam.motion.program_servo``) of the
-  finishing junction program (the one that turns C and A most): Best K_FFP per axis and
-  the predicted contour deviation of the tool tip over its feed blocks.
+* Servo: the feed-drive prediction (M6, ``cam.motion.program_servo``) of every
+  finishing program, all five axes modelled (``cam.motion.axis_models``): contour
+  error per NC line (``contour_<program>.csv``), max / median / RMS per program with the
+  machine's K_FFP and with the Best K_FFP, and the contour-error map on the blade
+  (``contour_map.png``, meridional view).
 """
 
 from __future__ import annotations
@@ -145,65 +147,99 @@ def _indexing(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
     return out
 
 
-def _servo_plot(line: NDArray[np.int64], deviation: NDArray[np.float64],
-                tuned: NDArray[np.float64] | None, feed: NDArray[np.bool_], path: Path,
-                title: str) -> None:
-    import matplotlib
+def _rms(values: NDArray[np.float64]) -> float:
+    return float(np.sqrt(np.mean(values**2))) if len(values) else 0.0
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8, 3.5))
-    ax.plot(line[feed], 1000.0 * deviation[feed], lw=0.8, label="machine K_FFP")
-    if tuned is not None:
-        ax.plot(line[feed], 1000.0 * tuned[feed], lw=0.8, label="Best K_FFP")
-    ax.set_xlabel("NC line")
-    ax.set_ylabel("contour deviation, um")
-    ax.set_title(title)
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, format="png", dpi=110, metadata={"Software": None})
-    plt.close(fig)
+def _per_line_csv(path: Path, report: Any, feed: NDArray[np.bool_]) -> None:
+    """Per NC line of the feed blocks: commanded tip and the predicted errors."""
+    tuned = report.deviation_recommended
+    rows = ["line,tip_x_mm,tip_y_mm,tip_z_mm,contour_um,tool_axis_deg,contour_best_kffp_um,"
+            "tool_axis_best_kffp_deg"]
+    for i in np.flatnonzero(feed):
+        x, y, z = report.tip[i]
+        best = "" if tuned is None else (f"{1000.0 * tuned[i]:.3f},"
+                                         f"{report.tool_axis_recommended[i]:.5f}")
+        rows.append(f"{report.line[i]},{x:.4f},{y:.4f},{z:.4f},"
+                    f"{1000.0 * report.deviation[i]:.3f},{report.tool_axis[i]:.5f},{best}")
+    write_text_atomic(path, "\n".join(rows) + "\n")
 
 
 def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
-    from cam.motion.program_servo import servo_axes, simulate_program
+    """Contour error of every finishing program, all five axes modelled (issue 26)."""
+    from cam.motion.axis_models import machine_axis_models
+    from cam.motion.plots import plot_contour_map
+    from cam.motion.program_servo import simulate_program
+    from geometry.spec import load_spec
     from postproc.nc_reader import read_nc
     from postproc.program import Motion
 
     finish = nc_programs(ctx, "finish")
     if not ctx.settings.servo or not finish:
         return {"program": None, "note": "servo prediction not asked"}
-    if not servo_axes(machine):
-        return {"program": None, "note": "the machine file has no servo data"}
-    entry = next((p for p in finish if p["name"].endswith("junction")), finish[0])
-    program = read_nc(ctx.out / entry["nc"])
-    report = simulate_program(program, machine, dt=SERVO_DT)
-    feed = program.motion == int(Motion.LINEAR)
-    dev = report.deviation[feed]
-    tuned = report.deviation_recommended
-    _servo_plot(report.line, report.deviation, tuned, feed, stage / "servo.png",
-                f"predicted servo deviation, {Path(entry['nc']).name}")
-    worst = int(np.argmax(dev)) if len(dev) else -1
+    if not any(spec.servo for spec in machine.axes.values()):
+        return {"program": None, "note": "the machine file has no servo data (no "
+                "[axes.<NAME>.servo] table: nothing to model the axes on)"}
+    models = machine_axis_models(machine)
+    programs, tips, errors, tuned_errors = [], [], [], []
+    for entry in finish:
+        program = read_nc(ctx.out / entry["nc"])
+        report = simulate_program(program, machine, dt=SERVO_DT, models=models)
+        feed = program.motion == int(Motion.LINEAR)
+        if not feed.any():
+            continue
+        dev, tuned = report.deviation[feed], report.deviation_recommended
+        csv_name = f"contour_{Path(entry['nc']).stem}.csv"
+        _per_line_csv(stage / csv_name, report, feed)
+        row: dict[str, Any] = {
+            "program": entry["nc"], "blocks": int(feed.sum()),
+            "max_contour_um": 1000.0 * float(dev.max()),
+            "rms_contour_um": 1000.0 * report.feed_rms,
+            "median_contour_um": 1000.0 * float(np.median(dev)),
+            "worst_line": int(report.line[feed][int(np.argmax(dev))]),
+            "max_tool_axis_deg": float(report.tool_axis[feed].max()),
+            "omega_rad_s": report.omega,
+            "kffp_best": report.recommended_kffp,
+            "saturated_in_feed": [a for a, hit in report.saturated.items() if hit],
+            "per_line": csv_name,
+        }
+        tuned_axis = report.tool_axis_recommended
+        if tuned is not None and tuned_axis is not None:
+            row.update({
+                "max_contour_best_kffp_um": 1000.0 * float(tuned[feed].max()),
+                "rms_contour_best_kffp_um": 1000.0 * float(report.feed_rms_recommended or 0),
+                "median_contour_best_kffp_um": 1000.0 * float(np.median(tuned[feed])),
+                "max_tool_axis_best_kffp_deg": float(tuned_axis[feed].max()),
+            })
+            tuned_errors.append(tuned[feed])
+        programs.append(row)
+        tips.append(report.tip[feed])
+        errors.append(dev)
+    if not programs:
+        return {"program": None, "note": "no feed blocks in the finishing programs"}
+    spec = load_spec(ctx.spec)
+    plot_contour_map(tips, errors, tuned_errors if len(tuned_errors) == len(errors) else
+                     None, spec.hub_contour, spec.shroud_contour, stage / "contour_map.png",
+                     "predicted contour error of the finishing programs, per NC block "
+                     "(meridional view, all blades)")
+    every = np.concatenate(errors)
     out: dict[str, Any] = {
-        "program": entry["nc"],
+        "program": "all finishing programs",
         "dt_s": SERVO_DT,
-        "kffp_best": report.recommended_kffp,
-        "kffp_machine": {a.name: a.k_ffp for a in servo_axes(machine).values()},
-        "reference_axis": report.reference_axis,
-        "omega_rad_s": report.omega,
-        "max_deviation_mm": float(dev.max()) if len(dev) else 0.0,
-        "rms_deviation_mm": float(np.sqrt(np.mean(dev**2))) if len(dev) else 0.0,
-        "worst_line": int(report.line[feed][worst]) if worst >= 0 else None,
-        "ideal_axes": report.ideal_axes,
-        "saturated": report.saturated,
-        "plot": "servo.png",
-        "note": "contour deviation over feed blocks (rapids excluded); axes without "
-                "servo data follow their command",
+        "axis_models": models.source,
+        "kffp_machine": {a.name: a.k_ffp for a in models.models.values()},
+        "max_contour_um": 1000.0 * float(every.max()),
+        "programs": programs,
+        "plot": "contour_map.png",
+        "note": "contour error = distance of the simulated tool tip from the commanded "
+                "tip path (normal to it; lag along the path is not a shape error), "
+                "largest per NC block over feed blocks; RMS over the feed samples; every "
+                "axis modelled (axis_models: identified or a default matched to the "
+                "most lagging identified axis of its kind); Best K_FFP per program at "
+                "its characteristic rotary speed",
     }
-    if tuned is not None and feed.any():
-        out["max_deviation_best_kffp_mm"] = float(tuned[feed].max())
-        out["rms_deviation_best_kffp_mm"] = float(np.sqrt(np.mean(tuned[feed] ** 2)))
+    if len(tuned_errors) == len(errors):
+        out["max_contour_best_kffp_um"] = 1000.0 * float(np.concatenate(tuned_errors).max())
     return out
 
 

@@ -93,9 +93,10 @@ def test_servo_on_a_program(tmp_path: Path) -> None:
     data = _json(["servo", "--machine", str(MACHINE), "--omega", "3.14159",
                   "--program", str(nc)])
     program = data["program"]
-    assert program["max_tip_deviation_mm"] <= program["max_tracking_error_mm"] + 1e-12
-    assert program["reference_axis"] == "C" and program["ideal_axes"] == ["Z", "A"]
-    assert set(program["recommended_kffp_percent"]) == {"X", "Y", "C"}
+    assert program["max_contour_error_mm"] <= program["max_tracking_error_mm"] + 1e-12
+    assert program["reference_axis"] == "C"
+    assert program["axis_models"]["Z"] == "default: matched to Y"
+    assert set(program["recommended_kffp_percent"]) == {"X", "Y", "Z", "A", "C"}
 
 
 def test_identify_json() -> None:
@@ -104,3 +105,35 @@ def test_identify_json() -> None:
                   "--free", "stiffness", "--free", "damping"])
     assert data["plant"]["stiffness"] == pytest.approx(7.3e5, rel=0.02)
     assert data["relative_rms"] < 0.1
+
+
+def test_identify_feed_drive_json() -> None:
+    response = ROOT / "fixtures" / "motion" / "feed_drive_response.csv"
+    data = _json(["identify", "--machine", str(MACHINE), "--axis", "C", "--response",
+                  str(response)])
+    assert data["free"] == ["J", "C", "Ta", "Tp"] and data["start"] == "identified"
+    assert data["servo"]["Tp"] == pytest.approx(0.005, rel=0.02)
+    assert data["servo"]["torque_limit"] == 725.0
+    # an axis without servo data starts from its stated default
+    default = _json(["identify", "--machine", str(MACHINE), "--axis", "A", "--response",
+                     str(response), "--free", "Ta"])
+    assert default["start"] == "default: matched to C"
+
+
+def test_identify_needs_a_target() -> None:
+    response = ROOT / "fixtures" / "motion" / "feed_drive_response.csv"
+    result = runner.invoke(motion_app, ["identify", "--response", str(response)])
+    assert isinstance(result.exception, InputError)
+    result = runner.invoke(motion_app, ["identify", "--machine", str(MACHINE), "--axis", "W",
+                                        "--response", str(response)])
+    assert isinstance(result.exception, InputError)
+
+
+def test_circle_json(tmp_path: Path) -> None:
+    drives = ROOT / "fixtures" / "motion" / "suzuki_table1.toml"
+    data = _json(["circle", "--drives", str(drives), "--plot", str(tmp_path / "c.png")])
+    assert len(data["points"]) == 18 and (tmp_path / "c.png").is_file()
+    assert all(p["best_amplitude_um"] < p["machine_amplitude_um"] for p in data["points"])
+    assert data["saturation"][0]["limit_acceleration"] == pytest.approx(725 / 5.9)
+    result = runner.invoke(motion_app, ["circle", "--drives", str(PLANT)])
+    assert isinstance(result.exception, InputError)

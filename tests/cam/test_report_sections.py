@@ -126,8 +126,18 @@ def test_motion_numbers_copied(sample: Path) -> None:
         assert text in indexing
     assert indexing.count("0.1487 0.1487") == 1  # the chosen profile is not listed twice
     servo = plain(sections["servo"])
-    for text in ("X 100.00 58.57 no", "C 100.00 100.00 yes", "0.0123", "nc/finish_hub.ngc"):
+    for text in ("nc/finish_hub.ngc 12.3 3.2 2.5 4.6 1.2 0.9 0.012 4 C",
+                 "Z default: matched to X 100.00"):
         assert text in servo
+
+
+def test_servo_from_a_partly_modelled_machine_is_not_shown(sample: Path) -> None:
+    motion = json.loads((sample / "motion/motion.json").read_text())
+    motion["servo"]["ideal_axes"] = ["Z", "A"]
+    (sample / "motion/motion.json").write_text(json.dumps(motion))
+    servo = sections_of(report_html(sample, render=False))["servo"]
+    assert "partly modelled machine (axes Z, A followed their command)" in servo
+    assert "<img" not in servo and "12.3" not in servo
 
 
 def test_indexing_search_skipped(sample: Path) -> None:

@@ -26,7 +26,7 @@ CONTRACT_FILES = [
     "finish/scene.stl", "nc/post.json", "verify/rough/verify.json",
     "verify/rough/report.html", "verify/rough/verify.junit.xml", "verify/rough/stock.npz",
     "verify/finish/verify.json", "verify/finish/stock.npz", "verify/regions.json",
-    "motion/motion.json", "motion/servo.png", "motion/indexing_time_vs_s.png",
+    "motion/motion.json", "motion/contour_map.png", "motion/indexing_time_vs_s.png",
 ]
 
 
@@ -238,9 +238,12 @@ def test_motion_json(chain_small: Path) -> None:
         <= indexing["case_I_s"] + 1e-12
     assert indexing["chosen"] == "best_asymmetric" and indexing["grid"] == "coarse"
     servo = motion["servo"]
-    assert servo["program"] == "nc/finish_junction.ngc"
-    assert set(servo["kffp_best"]) == {"X", "Y", "C"}
-    assert servo["max_deviation_mm"] >= servo["rms_deviation_mm"] > 0
+    assert servo["program"] == "all finishing programs"
+    assert set(servo["axis_models"]) == {"X", "Y", "Z", "A", "C"}
+    for row in servo["programs"]:
+        assert set(row["kffp_best"]) == {"X", "Y", "Z", "A", "C"}
+        assert row["max_contour_um"] >= row["rms_contour_um"] > 0
+        assert (chain_small / "motion" / row["per_line"]).is_file()
     assert (chain_small / "motion" / servo["plot"]).is_file()
 
 
