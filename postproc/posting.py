@@ -132,7 +132,17 @@ class PostedProgram:
 
     def simultaneous(self, index: int) -> bool:
         """Whether operation ``index`` has simultaneous five-axis blocks (linear moves at
-        inverse-time feed: the rotary axes move with the cut)."""
+        inverse-time feed: the rotary axes move with the cut).
+
+        Parameters
+        ----------
+        index : int
+            Operation index (``operations`` order).
+
+        Returns
+        -------
+        bool
+        """
         rows = self.operation == index
         return bool(np.any(rows & (self.blocks.motion == Motion.LINEAR)
                            & (self.blocks.feed_mode == FeedMode.INVERSE_TIME)))

@@ -120,7 +120,18 @@ def joint_names_for(name: str, file: str | Path | None = None) -> tuple[str, ...
 
 
 def kinematics_for(machine: Machine) -> Kinematics:
-    """Construct the kinematics named by ``machine.kinematics`` for ``machine``."""
+    """Construct the kinematics named by ``machine.kinematics`` for ``machine``.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine (pivot offsets mm, limits).
+
+    Returns
+    -------
+    Kinematics
+        Forward and inverse transforms between joints (mm, rad) and tool poses in W.
+    """
     cls = kinematics_class(machine.kinematics, machine.source)
     instance: Kinematics = cls(machine)
     return instance

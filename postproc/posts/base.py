@@ -105,7 +105,19 @@ class PostOptions:
     dialect_options: Mapping[str, str] = field(default_factory=dict)
 
     def option(self, name: str, default: str) -> str:
-        """The dialect option ``name`` (``default`` when not given)."""
+        """The dialect option ``name`` (``default`` when not given).
+
+        Parameters
+        ----------
+        name : str
+            Option name (``[control.options]`` key or ``--post-option KEY``).
+        default : str
+            Value when the option is not given.
+
+        Returns
+        -------
+        str
+        """
         return str(self.dialect_options.get(name, default))
 
     def __post_init__(self) -> None:
@@ -225,7 +237,13 @@ def _scan_entry_points() -> None:
 
 
 def available_posts() -> list[tuple[str, str, str]]:
-    """All registered dialects as ``(name, description, source)``, sorted by name."""
+    """All registered dialects, sorted by name.
+
+    Returns
+    -------
+    list of (str, str, str)
+        ``(name, description, source)`` of each dialect.
+    """
     _load_builtins()
     _scan_entry_points()
     return [(e.name, e.description, e.source) for _, e in sorted(_REGISTRY.items())]
@@ -233,6 +251,15 @@ def available_posts() -> list[tuple[str, str, str]]:
 
 def get_post(name: str) -> PostProcessor:
     """The dialect registered as ``name``.
+
+    Parameters
+    ----------
+    name : str
+        Dialect name (``impeller-cam posts``).
+
+    Returns
+    -------
+    PostProcessor
 
     Raises
     ------
