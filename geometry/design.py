@@ -37,7 +37,8 @@ from scipy.interpolate import PchipInterpolator
 from geometry.camber import cylindrical_to_cartesian
 from geometry.design_schema import DesignFile
 from geometry.machining import read_machining
-from geometry.spec import EDGE_SHAPES, MIN_SPLINE_POINTS, ImpellerSpec
+from geometry.spec import EDGE_SHAPES, ImpellerSpec
+from geometry.spec_schema import MIN_SPLINE_POINTS
 from geometry.validate import check_spec_geometry
 from impeller_cam.atomic import staged_directory, write_text_atomic
 from impeller_cam.errors import InputError
