@@ -46,7 +46,7 @@ from OCP.TopAbs import TopAbs_FACE, TopAbs_IN
 from OCP.TopoDS import TopoDS, TopoDS_Face, TopoDS_Shape
 
 from geometry.assembly import ROLES
-from geometry.brep import faces_of, solids_of
+from geometry.brep import compound, faces_of, solids_of
 from geometry.mesh import tessellate
 from impeller_cam.errors import InputError
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
@@ -104,8 +104,6 @@ def occ_shape(obj: Any) -> TopoDS_Shape:
         if len(shapes) == 1:
             return shapes[0]
         if shapes:
-            from geometry.brep import compound
-
             return compound(shapes)
     raise InputError("not a shape", field="shape", value=type(obj).__name__,
                      accepted=SHAPE_KINDS)
@@ -130,6 +128,10 @@ class FaceRoles:
     A face is known by its underlying surface: OpenCASCADE's booleans and its
     same-domain unification keep the surface of every face they split, trim or merge.
     The surfaces are kept alive here, so their Python wrappers stay the same objects.
+    A face whose surface was rebuilt (build123d's clean-up rebuilds a cylinder it cut)
+    takes the role of the original face that a point inside it lies on (``ON_FACE``).
+    Roles are found for faces in place: a moved or rotated copy of the impeller is a
+    new shape (its faces have no role).
     """
 
     def __init__(self, faces: Sequence[TopoDS_Face], roles: Sequence[str]) -> None:

@@ -25,8 +25,11 @@ from typing import Any
 
 import pytest
 
+#: The product's front doors (issue 24) and the sub-packages whose doors are complete.
+#: Not yet walked (their public classes' methods lack sections): ``cam.collision``,
+#: ``postproc.posts`` (the ``GCodeWriter`` hooks), ``postproc.kinematics``.
 FRONT_DOORS = ("geometry", "cam", "cam.roughing", "cam.finishing", "cam.verify", "postproc",
-               "impeller_cam")
+               "cam.run", "cam.report", "impeller_cam")
 
 #: Parameter names that carry a unit: their description must name it.
 UNIT_NAMES = re.compile(r"^(tolerance|resolution|radius|diameter|deflection|allowance|"
