@@ -169,7 +169,19 @@ class PostProcessor(Protocol):
     supports_tcp: bool
 
     def write(self, program: PostedProgram, options: PostOptions) -> str:
-        """Return the complete program text for ``program`` (ends with a newline)."""
+        """The complete program text for ``program`` (ends with a newline).
+
+        Parameters
+        ----------
+        program : PostedProgram
+            The posted program (joints mm, rad).
+        options : PostOptions
+            The posting options.
+
+        Returns
+        -------
+        str
+        """
         ...
 
 
@@ -196,7 +208,19 @@ def _instantiate(obj: Any) -> PostProcessor:
 
 
 def register_post(cls: type[Any]) -> type[Any]:
-    """Class decorator: register a built-in (or in-process) dialect under ``cls.name``."""
+    """Class decorator: register a built-in (or in-process) dialect under ``cls.name``.
+
+    Parameters
+    ----------
+    cls : type
+        The dialect class (``name``, ``description``, ``extension``, ``supports_tcp``,
+        ``write``).
+
+    Returns
+    -------
+    type
+        ``cls`` unchanged.
+    """
     name = str(cls.name)
     _REGISTRY[name] = _Entry(name, str(cls.description), "built-in",
                              lambda: _instantiate(cls))
@@ -205,7 +229,19 @@ def register_post(cls: type[Any]) -> type[Any]:
 
 def register_unavailable(name: str, description: str, error: BaseException,
                          source: str = "built-in") -> None:
-    """Register a dialect whose import failed; ``get_post(name)`` re-raises ``error``."""
+    """Register a dialect whose import failed; ``get_post(name)`` re-raises ``error``.
+
+    Parameters
+    ----------
+    name : str
+        Dialect name.
+    description : str
+        What it is (listed with the error by ``impeller-cam posts``).
+    error : BaseException
+        The import error.
+    source : str
+        Where the dialect comes from (``built-in`` or an entry point).
+    """
 
     def load() -> PostProcessor:
         raise error
