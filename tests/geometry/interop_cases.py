@@ -58,9 +58,10 @@ def hub_points(spec: ImpellerSpec) -> tuple[list[tuple[float, float, float]],
     """The small fixture's hub as a script draws it in the XZ plane: the contour
     (spline through the spec's points) and the closing polyline (rim, back, bore, nose)."""
     zr = spec.hub_contour
-    (z_in, r_in), (z_out, r_out) = zr[0], zr[-1]
-    bore = spec.bore_radius
+    z_in, r_in = float(zr[0, 0]), float(zr[0, 1])
+    z_out, r_out = float(zr[-1, 0]), float(zr[-1, 1])
+    bore = float(spec.bore_radius)
     spline = [(float(r), 0.0, float(z)) for z, r in zr]
     closing = [(r_out, 0.0, z_out), (r_out, 0.0, 0.0), (bore, 0.0, 0.0), (bore, 0.0, z_in),
                (r_in, 0.0, z_in)]
-    return spline, [tuple(map(float, p)) for p in closing]  # type: ignore[misc]
+    return spline, closing
