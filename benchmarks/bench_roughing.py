@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from cam.roughing.command import run_rough
+from cam.roughing.options import RoughOptions
 from cam.roughing.report import table1_markdown
 
 CASES = {"nine_blade": "ball10", "splitter": "ball6", "small": "ball6"}
@@ -39,7 +40,8 @@ def main() -> None:
             start = time.perf_counter()
             doc = run_rough(f"fixtures/impellers/{fixture}/spec.toml",
                             "fixtures/machines/trunnion-500.toml", tool, Path(tmp) / "o",
-                            progress=False, compare=True, **options)
+                            progress=False, compare=True,
+                            options=RoughOptions(**options))
             wall = time.perf_counter() - start
         poses = sum(op["poses"] for op in doc["operations"])
         print(f"{fixture} {tool}: {wall:.1f} s, UMRs {len(doc['umrs'])}, poses {poses}, "

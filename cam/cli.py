@@ -89,23 +89,14 @@ def finish_command(
 ) -> None:
     """Five-axis finishing: APT per operation, finish.json, A/C displacement plots."""
     from cam.finishing.command import run_finish
+    from cam.finishing.options import FinishOptions
 
-    run_finish(
-        spec,
-        _machine(machine),
-        tool,
-        out,
-        plots=plots,
-        fillet_tool=fillet_tool,
-        stock=stock,
-        scallop_mm=scallop,
-        point_spacing_mm=spacing,
-        chordal_tolerance_mm=chordal_tol,
-        passages=passages,
-        clearance_mm=clearance,
-        clearance_exact_mm=max(clearance, 3.0),
-        stock_clearance_mm=stock_clearance,
-    )
+    options = FinishOptions.from_mapping({
+        "scallop_mm": scallop, "point_spacing_mm": spacing, "chordal_tolerance_mm": chordal_tol,
+        "passages": passages, "clearance_mm": clearance,
+        "clearance_exact_mm": max(clearance, 3.0), "stock_clearance_mm": stock_clearance})
+    run_finish(spec, _machine(machine), tool, out, options=options, plots=plots,
+               fillet_tool=fillet_tool, stock=stock)
 
 
 @app.command("rough")
@@ -134,10 +125,12 @@ def rough_command(
 ) -> None:
     """Three-axis roughing by Unit Machining Regions (3+2): APT per UMR, rough.json."""
     from cam.roughing.command import run_rough
+    from cam.roughing.options import RoughOptions
 
-    run_rough(spec, _machine(machine), tool, out, scallop_mm=scallop, passages=passages,
-              max_depth_mm=max_depth, step_along_mm=step_along,
-              baseline_layering=baseline_layering, compare=compare)
+    options = RoughOptions.from_mapping({
+        "scallop_mm": scallop, "passages": passages, "max_depth_mm": max_depth,
+        "step_along_mm": step_along, "baseline_layering": baseline_layering})
+    run_rough(spec, _machine(machine), tool, out, options=options, compare=compare)
 
 
 @app.command("verify")

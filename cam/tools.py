@@ -104,7 +104,13 @@ class Tool:
         return self.holder[-1].z1 if self.holder else self.stickout
 
     def shank_segments(self) -> tuple[Segment, ...]:
-        """Neck/shank frusta from the top of the flutes to the holder nose."""
+        """Neck/shank frusta from the top of the flutes to the holder nose.
+
+        Returns
+        -------
+        tuple of Segment
+            Frusta ``(r0, z0, r1, z1)`` above the tip, mm.
+        """
         r = self.radius
         rs = 0.5 * self.shank_diameter
         z = self.flute_length
@@ -125,7 +131,12 @@ class Tool:
         Parameters
         ----------
         height : (n,) float64
-            Heights above the tip, 0 <= h <= flute_length.
+            Heights above the tip, mm, 0 <= h <= flute_length.
+
+        Returns
+        -------
+        (n,) float64
+            Radius of the cutter's outline at each height, mm.
         """
         h = np.asarray(height, dtype=np.float64)
         r, rc = self.radius, self.corner_radius
@@ -135,7 +146,18 @@ class Tool:
         return np.where(h >= rc, r, corner)
 
     def outline(self, samples: int = 16) -> NDArray[np.float64]:
-        """``(k, 2)`` outline (radius, height) from the tip to the top of the holder."""
+        """The tool's outline from the tip to the top of the holder.
+
+        Parameters
+        ----------
+        samples : int
+            Points on the corner (ball or bull-nose) arc.
+
+        Returns
+        -------
+        (k, 2) float64
+            ``(radius, height above the tip)``, mm.
+        """
         heights = np.linspace(0.0, self.corner_radius, samples)
         points = [np.column_stack([self.radius_at(heights), heights])]
         if self.corner_radius == 0:
@@ -195,6 +217,11 @@ def load_tool_library(path: str | Path) -> dict[str, Tool]:
     The TOML form is validated against ``cam.tools_schema.ToolLibraryFile``: an
     unknown key (``[[tool.holdr]]``), a wrong type, a NaN or a non-positive length is
     an ``InputError`` naming the tool, the key and the nearest valid key.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.toml`` library or LinuxCNC ``.tbl`` tool table (lengths mm).
 
     Returns
     -------
@@ -274,6 +301,23 @@ def resolve_tool(argument: str, library: str | Path | None = None) -> Tool:
 
     A bare ``NAME`` is looked up in ``library`` (default: the bundled library). A
     library path without a name must hold exactly one tool.
+
+    Parameters
+    ----------
+    argument : str
+        ``NAME``, ``LIBRARY.toml:NAME`` or ``LIBRARY.toml`` (or ``.tbl``).
+    library : str or Path, optional
+        The library of a bare name (default: fixtures/tools/library.toml).
+
+    Returns
+    -------
+    Tool
+        Lengths in mm.
+
+    Raises
+    ------
+    InputError
+        An unknown name or library, a bad library file.
     """
     path_part, _, name = argument.rpartition(":") if ":" in argument else ("", "", argument)
     if not path_part and Path(argument).suffix in {".toml", ".tbl"}:

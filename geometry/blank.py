@@ -252,8 +252,14 @@ def spec_blank_profile(spec: ImpellerSpec, surfaces: ImpellerSurfaces | None = N
     Parameters
     ----------
     spec : ImpellerSpec
+        The impeller (contours, bore, stock allowance in mm).
     surfaces : ImpellerSurfaces, optional
         The spec's surfaces when already built (else built here).
+
+    Returns
+    -------
+    (k, 2) float64
+        Closed meridional polygon ``(r, z)``, mm.
     """
     from geometry.blank_envelope import blade_points, dilated_top
     from geometry.surfaces import build_surfaces

@@ -29,13 +29,21 @@ from OCP.Geom import Geom_BSplineCurve, Geom_BSplineSurface
 from OCP.Geom2d import Geom2d_BSplineCurve
 from OCP.gp import gp_Pnt, gp_Pnt2d
 from OCP.GProp import GProp_GProps
-from OCP.OCP.collections import (
-    Array1_double,
-    Array1_gp_Pnt,
-    Array1_gp_Pnt2d,
-    Array1_int,
-    Array2_gp_Pnt,
-)
+
+try:
+    from OCP.OCP.collections import (
+        Array1_double,
+        Array1_gp_Pnt,
+        Array1_gp_Pnt2d,
+        Array1_int,
+        Array2_gp_Pnt,
+    )
+except ImportError:  # OCP < 8: the cadquery extra's venv (docs/dependencies.md)
+    from OCP.TColgp import TColgp_Array1OfPnt as Array1_gp_Pnt  # type: ignore[no-redef]
+    from OCP.TColgp import TColgp_Array1OfPnt2d as Array1_gp_Pnt2d  # type: ignore[no-redef]
+    from OCP.TColgp import TColgp_Array2OfPnt as Array2_gp_Pnt  # type: ignore[no-redef]
+    from OCP.TColStd import TColStd_Array1OfInteger as Array1_int  # type: ignore[no-redef]
+    from OCP.TColStd import TColStd_Array1OfReal as Array1_double  # type: ignore[no-redef]
 from OCP.ShapeFix import ShapeFix_Solid
 from OCP.TopAbs import TopAbs_FACE, TopAbs_SHELL, TopAbs_SOLID
 from OCP.TopExp import TopExp_Explorer

@@ -37,7 +37,8 @@ from scipy.interpolate import PchipInterpolator
 from geometry.camber import cylindrical_to_cartesian
 from geometry.design_schema import DesignFile
 from geometry.machining import read_machining
-from geometry.spec import EDGE_SHAPES, MIN_SPLINE_POINTS, ImpellerSpec
+from geometry.spec import EDGE_SHAPES, ImpellerSpec
+from geometry.spec_schema import MIN_SPLINE_POINTS
 from geometry.validate import check_spec_geometry
 from impeller_cam.atomic import staged_directory, write_text_atomic
 from impeller_cam.errors import InputError
@@ -403,6 +404,11 @@ def _midspan_line(
 def generate(params: DesignParameters) -> GeneratedDesign:
     """Make the contours and camber lines of ``params``.
 
+    Parameters
+    ----------
+    params : DesignParameters
+        The design (mm, rad).
+
     Returns
     -------
     GeneratedDesign
@@ -513,7 +519,20 @@ def write_generated(
 
 
 def write_design(params: DesignParameters, folder: str | Path) -> Path:
-    """Generate ``params`` and write the spec TOML + CSVs into ``folder``; return the TOML path."""
+    """Generate ``params`` and write the spec TOML + camber CSVs into ``folder``.
+
+    Parameters
+    ----------
+    params : DesignParameters
+        The design (mm, rad).
+    folder : str or Path
+        Output folder (written atomically).
+
+    Returns
+    -------
+    Path
+        The written ``spec.toml``.
+    """
     return write_generated(generate(params), folder)
 
 
@@ -570,6 +589,16 @@ def _design_kwargs(data: dict[str, Any], path: Path) -> dict[str, Any]:
 
 def load_design(path: str | Path) -> DesignParameters:
     """Read ``design.toml`` (format in docs/design-generator.md) into ``DesignParameters``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The design TOML (lengths mm, angles deg).
+
+    Returns
+    -------
+    DesignParameters
+        Validated; internal units mm, rad.
 
     Raises
     ------

@@ -36,7 +36,20 @@ def _quiet() -> None:
 
 
 def write_step(shape: TopoDS_Shape, path: str | Path) -> Path:
-    """Write ``shape`` as an AP214 STEP file in millimetres (atomic, deterministic)."""
+    """Write ``shape`` as an AP214 STEP file in millimetres (atomic, deterministic).
+
+    Parameters
+    ----------
+    shape : TopoDS_Shape
+        The shape (mm).
+    path : str or Path
+        The STEP file.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     path = Path(path)
     _quiet()
     Interface_Static.SetCVal_s("write.step.unit", "MM")
@@ -54,7 +67,18 @@ def write_step(shape: TopoDS_Shape, path: str | Path) -> Path:
 
 
 def read_step(path: str | Path) -> TopoDS_Shape:
-    """Read a STEP file back into one shape."""
+    """Read a STEP file back into one shape.
+
+    Parameters
+    ----------
+    path : str or Path
+        The STEP file.
+
+    Returns
+    -------
+    TopoDS_Shape
+        Its shapes as one (mm).
+    """
     _quiet()
     reader = STEPControl_Reader()
     if reader.ReadFile(str(path)) != IFSelect_RetDone:
@@ -64,7 +88,20 @@ def read_step(path: str | Path) -> TopoDS_Shape:
 
 
 def write_stl(mesh: trimesh.Trimesh, path: str | Path) -> Path:
-    """Write a binary STL (mm) atomically."""
+    """Write a binary STL (mm) atomically.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        The mesh, mm.
+    path : str or Path
+        The STL file.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     data = mesh.export(file_type="stl")
     if not isinstance(data, bytes):
         raise TypeError("trimesh did not export binary STL")

@@ -128,7 +128,12 @@ class GeometryFigures:
     max_fillet_radius: float
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON-ready dict, lengths in mm (keys carry the unit)."""
+        """JSON-ready dict, lengths in mm (keys carry the unit).
+
+        Returns
+        -------
+        dict
+        """
         return {
             "blades": self.blades,
             "splitters": self.splitters,
@@ -377,8 +382,14 @@ def compute_figures(surfaces: ImpellerSurfaces, k: float = 1.2) -> GeometryFigur
     Parameters
     ----------
     surfaces : ImpellerSurfaces
+        The impeller's closed-form surfaces.
     k : float
         Protection factor of M4 eq. (1).
+
+    Returns
+    -------
+    GeometryFigures
+        d_min, r_max, thickness, rule deviation, largest fillet radius (mm).
     """
     spec = surfaces.spec
     width = minimum_passage_width(surfaces)

@@ -32,6 +32,7 @@ class Impeller:
     Parameters
     ----------
     spec : ImpellerSpec
+        The validated spec (``geometry.spec.load_spec``).
     fillets : bool
         Build the blade-to-hub fillets (default). ``False`` explicitly asks for a
         solid without them.
@@ -45,7 +46,20 @@ class Impeller:
 
     @classmethod
     def from_spec(cls, path: str | Path, fillets: bool = True) -> Impeller:
-        """Load and validate a spec TOML."""
+        """Load and validate a spec TOML.
+
+        Parameters
+        ----------
+        path : str or Path
+            The impeller spec TOML (docs/formats.md).
+        fillets : bool
+            Build the blade-to-hub fillets (default).
+
+        Returns
+        -------
+        Impeller
+            Not built yet: the surfaces and the solid are built on first use.
+        """
         return cls(load_spec(path), fillets=fillets)
 
     @cached_property
@@ -67,7 +81,18 @@ class Impeller:
         return self.built.part.solid
 
     def faces(self, role: str) -> list[TopoDS_Face]:
-        """Faces of the solid with ``role`` (one of ``geometry.assembly.ROLES``)."""
+        """Faces of the solid with ``role``.
+
+        Parameters
+        ----------
+        role : str
+            One of ``geometry.assembly.ROLES``.
+
+        Returns
+        -------
+        list of TopoDS_Face
+            The OCP faces of that role (mm).
+        """
         if role not in ROLES:
             raise InputError("unknown face role", field="role", value=role,
                              accepted=", ".join(ROLES))
@@ -75,7 +100,13 @@ class Impeller:
         return [f for f, r in zip(part.faces, part.roles, strict=True) if r == role]
 
     def role_counts(self) -> dict[str, int]:
-        """Number of faces per role."""
+        """Number of faces per role.
+
+        Returns
+        -------
+        dict
+            Role (every one of ``geometry.assembly.ROLES``) -> face count.
+        """
         return {role: self.built.part.roles.count(role) for role in ROLES}
 
     def _mesh(self, tolerance: float) -> tuple[trimesh.Trimesh, np.ndarray]:
@@ -89,7 +120,20 @@ class Impeller:
 
     def mesh(self, role: str | None = None,
              tolerance: float = DEFAULT_TOLERANCES.tessellation) -> trimesh.Trimesh:
-        """Triangle mesh of the whole impeller (watertight) or of the faces of ``role``."""
+        """Triangle mesh of the whole impeller (watertight) or of the faces of ``role``.
+
+        Parameters
+        ----------
+        role : str, optional
+            One of ``geometry.assembly.ROLES``; default the whole impeller.
+        tolerance : float
+            Chordal tolerance of the tessellation, mm (> 0).
+
+        Returns
+        -------
+        trimesh.Trimesh
+            Vertices in mm; cached per tolerance.
+        """
         if tolerance <= 0:
             raise InputError("tessellation tolerance must be positive", field="tessellation",
                              value=tolerance, accepted="a length > 0 mm")
@@ -103,16 +147,50 @@ class Impeller:
         return sub if isinstance(sub, trimesh.Trimesh) else trimesh.Trimesh()
 
     def triangle_roles(self, tolerance: float = DEFAULT_TOLERANCES.tessellation) -> np.ndarray:
-        """Role of each triangle of :meth:`mesh` (whole) at ``tolerance``."""
+        """Role of each triangle of :meth:`mesh` (whole) at ``tolerance``.
+
+        Parameters
+        ----------
+        tolerance : float
+            Chordal tolerance of the tessellation, mm.
+
+        Returns
+        -------
+        (n_triangles,) str array
+        """
         return self._mesh(tolerance)[1]
 
     def export_step(self, path: str | Path) -> Path:
-        """Write the solid as STEP (mm)."""
+        """Write the solid as STEP (AP214, mm; atomic, deterministic bytes).
+
+        Parameters
+        ----------
+        path : str or Path
+            The STEP file.
+
+        Returns
+        -------
+        Path
+            ``path``.
+        """
         return write_step(self.solid, path)
 
     def export_stl(self, path: str | Path,
                    tolerance: float = DEFAULT_TOLERANCES.tessellation) -> Path:
-        """Write the whole mesh as binary STL (mm)."""
+        """Write the whole mesh as binary STL (mm).
+
+        Parameters
+        ----------
+        path : str or Path
+            The STL file.
+        tolerance : float
+            Chordal tolerance of the tessellation, mm.
+
+        Returns
+        -------
+        Path
+            ``path``.
+        """
         return write_stl(self.mesh(tolerance=tolerance), path)
 
     @cached_property

@@ -41,13 +41,13 @@ from OCP.Geom import (
     Geom_SurfaceOfRevolution,
 )
 from OCP.gp import gp_Ax1, gp_Ax2, gp_Ax3, gp_Dir, gp_Pln, gp_Pnt, gp_Trsf
-from OCP.OCP.collections import Array1_gp_Pnt
 from OCP.ShapeFix import ShapeFix_Face
 from OCP.TopoDS import TopoDS, TopoDS_Edge, TopoDS_Face, TopoDS_Shape, TopoDS_Solid, TopoDS_Wire
 from scipy.interpolate import BSpline, CubicSpline
 from scipy.spatial import cKDTree
 
 from geometry.brep import (
+    Array1_gp_Pnt,
     GeometryBuildError,
     _knots,
     bspline_curve_2d,

@@ -92,7 +92,18 @@ class ImpellerSpec:
         return 2.0 * math.pi / self.blades
 
     def thickness(self, u: ArrayLike) -> NDArray[np.float64]:
-        """Blade thickness at camber parameter ``u`` (any shape), mm (PCHIP, no overshoot)."""
+        """Blade thickness at camber parameter ``u`` (PCHIP, no overshoot).
+
+        Parameters
+        ----------
+        u : array_like
+            Camber parameters in [0, 1] (any shape; clipped to the thickness knots).
+
+        Returns
+        -------
+        float64 array, shape of ``u``
+            Thickness, mm.
+        """
         u = np.asarray(u, dtype=np.float64)
         if len(self.thickness_u) == 1 or np.all(self.thickness_mm == self.thickness_mm[0]):
             return np.full(u.shape, float(self.thickness_mm[0]))

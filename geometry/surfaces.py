@@ -216,12 +216,29 @@ class ImpellerSurfaces:
     splitters: list[BladeSurface] = field(default_factory=list)
 
     def all_blades(self) -> list[BladeSurface]:
-        """Main blades then splitters."""
+        """Main blades then splitters.
+
+        Returns
+        -------
+        list of BladeSurface
+        """
         return [*self.blades, *self.splitters]
 
 
 def build_surfaces(spec: ImpellerSpec) -> ImpellerSurfaces:
-    """Interpolate the camber lines and place every blade of ``spec``."""
+    """Interpolate the camber lines and place every blade of ``spec``.
+
+    Parameters
+    ----------
+    spec : ImpellerSpec
+        The validated spec (mm, rad).
+
+    Returns
+    -------
+    ImpellerSurfaces
+        Closed-form camber curves, hub and shroud surfaces of revolution, one
+        ``BladeSurface`` per main blade and per splitter (mm).
+    """
     p, q, m = camber_curves(spec.shroud_camber, spec.hub_camber, spec.midspan_camber)
     hub = RevolvedSurface(spec.hub_contour, passage_side=+1)
     shroud = RevolvedSurface(spec.shroud_contour, passage_side=-1)

@@ -75,11 +75,41 @@ def read_apt(path: str | Path) -> list[Toolpath]:
 
 
 def parse_apt(text: str, source: str = "<string>") -> list[Toolpath]:
-    """Parse CL text (see ``read_apt``); ``source`` names it in error messages."""
+    """Parse CL text (see ``read_apt``).
+
+    Parameters
+    ----------
+    text : str
+        APT CLDATA.
+    source : str
+        Name of the text in error messages.
+
+    Returns
+    -------
+    list of Toolpath
+        One per operation, poses in W (mm; inch files converted).
+    """
     return parse_apt_document(text, source=source).toolpaths
 
 
 def write_apt(path: str | Path, toolpaths: Sequence[Toolpath], decimals: int = 6,
               header: str | None = None) -> Path:
-    """Write ``toolpaths`` as a CL file atomically (see ``format_apt``); returns the path."""
+    """Write ``toolpaths`` as a CL file atomically (see ``format_apt``).
+
+    Parameters
+    ----------
+    path : str or Path
+        The APT file.
+    toolpaths : sequence of Toolpath
+        Operations in order, poses in W (mm).
+    decimals : int
+        Digits after the point of coordinates (mm) and axis components.
+    header : str, optional
+        A ``$$`` comment line at the top.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     return write_text_atomic(path, format_apt(toolpaths, decimals=decimals, header=header))

@@ -29,7 +29,36 @@ def post_text(
 ) -> str:
     """Post an APT file for a machine and return the program text (nothing written).
 
-    Parameters are those of ``run_post`` without ``out``.
+    Parameters
+    ----------
+    apt : str or Path
+        APT CLDATA file, poses in the workpiece frame W.
+    machine : str or Path
+        Machine TOML.
+    post : str, optional
+        Dialect name (``impeller-cam posts``); default: the machine's ``post``.
+    tcp : bool
+        Post for tool-centre-point control.
+    tolerance : float
+        Chordal tolerance of the tool tip, mm.
+    angular_tolerance_deg : float
+        Tolerance of the tool axis.
+    block_numbers : bool
+        Write ``N`` words.
+    program_number : int, optional
+        ``O`` number (dialects that use one), 1..9999.
+    post_options : mapping of str to str, optional
+        Dialect options over the machine file's ``[control.options]``.
+
+    Returns
+    -------
+    str
+        The NC program.
+
+    Raises
+    ------
+    InputError
+        As ``run_post``.
     """
     from postproc.apt import read_apt
     from postproc.machine import load_machine

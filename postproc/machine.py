@@ -183,7 +183,13 @@ class Machine:
         return tuple(self.axes)
 
     def limits(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Lower and upper travel limits, each ``(5,)`` in internal units (mm, rad)."""
+        """Lower and upper travel limits.
+
+        Returns
+        -------
+        lower, upper : (5,) float64
+            X Y Z in mm, A C (or B C) in rad.
+        """
         specs = list(self.axes.values())
         lower = np.array([s.minimum for s in specs], dtype=np.float64)
         upper = np.array([s.maximum for s in specs], dtype=np.float64)

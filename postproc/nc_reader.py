@@ -458,7 +458,20 @@ def parse_nc(text: str, source: str = "<string>", *, chordal_tolerance: float | 
 
 
 def read_nc(path: str | Path, **options: object) -> MachineProgram:
-    """Read an NC file (see ``parse_nc`` for ``options``)."""
+    """Read an NC file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The NC program.
+    **options
+        Keyword options of ``parse_nc`` (``chordal_tolerance`` mm, ``start``,
+        ``switchkins``, ``home``, ``dialect``, ``machine``).
+
+    Returns
+    -------
+    MachineProgram
+    """
     return read_nc_document(path, **options).program
 
 

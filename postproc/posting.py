@@ -132,7 +132,17 @@ class PostedProgram:
 
     def simultaneous(self, index: int) -> bool:
         """Whether operation ``index`` has simultaneous five-axis blocks (linear moves at
-        inverse-time feed: the rotary axes move with the cut)."""
+        inverse-time feed: the rotary axes move with the cut).
+
+        Parameters
+        ----------
+        index : int
+            Operation index (``operations`` order).
+
+        Returns
+        -------
+        bool
+        """
         rows = self.operation == index
         return bool(np.any(rows & (self.blocks.motion == Motion.LINEAR)
                            & (self.blocks.feed_mode == FeedMode.INVERSE_TIME)))
@@ -276,7 +286,7 @@ def post_toolpaths(
         records = tp.source_records.astype(np.int64)
         previous = None if prev_q is None else prev_q + length * ez
         q = kins.inverse(tp.tip, tp.axis, tool_length=length, previous=previous,
-                         records=records) - length * ez  # type: ignore[call-arg]
+                         records=records) - length * ez
         tool_change = options.tool_change and tp.tool_number != prev_tool
         if prev_q is None:
             active_length = 0.0 if options.tool_change else length
@@ -437,7 +447,7 @@ def _not_repeated(blocks: _Chunk, decimals: int) -> NDArray[np.bool_]:
         q = quantise(np.where(known[:, j], words[:, j], 0.0), decimals)
         changed |= modal_changes(q, known[:, j])
     switch = np.concatenate([[True], blocks.tcp[1:] != blocks.tcp[:-1]]) if n else changed
-    return changed | switch
+    return np.asarray(changed | switch, dtype=np.bool_)
 
 
 def _check_travel(machine: Machine, blocks: _Chunk) -> None:

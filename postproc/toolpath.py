@@ -31,7 +31,17 @@ class MoveKind(IntEnum):
 
 @dataclass(frozen=True)
 class Cutter:
-    """The APT ``CUTTER/`` description: diameter and corner radius in mm."""
+    """The APT ``CUTTER/`` description.
+
+    Attributes
+    ----------
+    diameter : float
+        Cutter diameter, mm.
+    corner_radius : float
+        Corner radius, mm (half the diameter: a ball-end mill).
+    length : float
+        Cutting length, mm (0: not given).
+    """
 
     diameter: float
     corner_radius: float = 0.0

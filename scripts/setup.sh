@@ -1,12 +1,22 @@
 #!/usr/bin/env bash
 # Create .venv and install impeller-cam into it (with the dev extra when asked).
-# Usage: scripts/setup.sh [--dev]
+# Usage: scripts/setup.sh [--dev | --cadquery]
+# --cadquery makes the second venv .venv-cadquery instead: impeller-cam with the
+# cadquery extra and pytest (cadquery's OCP release cannot share a venv with
+# build123d's: docs/dependencies.md).
 # Also installs LinuxCNC's stand-alone interpreter (rs274, Debian package
 # linuxcnc-uspace) and a headless browser (Debian package chromium) with --dev,
 # since the tests feed our NC output to rs274 and open report.html in chromium.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 extra=""
+if [ "${1:-}" = "--cadquery" ]; then
+  if [ ! -x .venv-cadquery/bin/python ]; then
+    python3 -m venv .venv-cadquery
+    .venv-cadquery/bin/python -m pip install -q --upgrade pip
+  fi
+  exec .venv-cadquery/bin/python -m pip install -q -e ".[cadquery]" pytest
+fi
 if [ "${1:-}" = "--dev" ]; then
   extra="[dev]"
   if ! command -v rs274 >/dev/null 2>&1; then

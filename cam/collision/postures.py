@@ -119,6 +119,11 @@ def motion_bound(reach: float, max_step_mm: float, max_step_rad: float) -> float
         Largest tip move per sub-step, mm.
     max_step_rad : float
         Largest axis turn per sub-step, radians.
+
+    Returns
+    -------
+    float
+        ``max_step_mm / 2 + 2 L sin(max_step_rad / 4)``, mm.
     """
     return 0.5 * max_step_mm + 2.0 * reach * math.sin(0.25 * max_step_rad)
 

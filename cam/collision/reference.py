@@ -33,7 +33,18 @@ def plain_fcl_check(
     cutter_roles: Collection[str] | None = None,
     clearance: bool = True,
 ) -> PostureReport:
-    """Check postures one by one with fcl only (same arguments as ``check_postures``).
+    """Check postures one by one with fcl only (the reference of ``check_postures``).
+
+    Parameters
+    ----------
+    scene : CollisionScene
+        The scene meshes.
+    tool : Tool
+        The tool (mm).
+    tip, axis : (n, 3) array-like
+        Tool tips (mm) and unit axes in the scene frame.
+    parts, cutter_allowance, cutter_roles, clearance
+        As ``CollisionScene.check_postures`` (lengths in mm).
 
     Returns
     -------

@@ -96,6 +96,8 @@ class PostureReport:
     bound : float
         For motion checks: the tool between sub-samples may come up to this
         much closer to the scene than reported, mm (0 for posture checks).
+    checks : dict of str to int
+        Counters of the queries run (broad phase, exact phase, fcl).
     """
 
     collides: NDArray[np.bool_]
@@ -109,10 +111,19 @@ class PostureReport:
         return len(self.collides)
 
     def blocked(self, min_clearance: float = 0.0) -> NDArray[np.bool_]:
-        """``(n,) bool``: in contact, or shank/holder closer than ``min_clearance`` (mm).
+        """In contact, or shank/holder closer than ``min_clearance``.
 
         Roughing's "nothing closer than eta": check with ``cutter_allowance=-eta``
         and use ``blocked(eta)``. Needs the clearance when ``min_clearance > 0``.
+
+        Parameters
+        ----------
+        min_clearance : float
+            Smallest shank/holder clearance accepted, mm (0: contact only).
+
+        Returns
+        -------
+        (n,) bool
         """
         if min_clearance <= 0:
             return self.collides.copy()
@@ -272,7 +283,19 @@ class CollisionScene:
     # -- tool models ---------------------------------------------------------------
 
     def tool_model(self, tool: Tool, cutter_offset: float = 0.0) -> ToolModel:
-        """The (cached) meshes, fcl objects and sphere covers of a tool."""
+        """The (cached) meshes, fcl objects and sphere covers of a tool.
+
+        Parameters
+        ----------
+        tool : Tool
+            The tool (mm).
+        cutter_offset : float
+            Signed offset of the cutter only, mm (> 0 grows).
+
+        Returns
+        -------
+        ToolModel
+        """
         key = (tool, float(cutter_offset))
         if key not in self._tools:
             self._tools[key] = build_tool_model(tool, float(cutter_offset), self.sections,
@@ -299,6 +322,7 @@ class CollisionScene:
         Parameters
         ----------
         tool : Tool
+            The tool (cutter, shank, holder; mm).
         tip, axis : (n, 3) array-like
             Tool tips (mm) and unit axes in the scene frame.
         parts : collection of str
@@ -412,6 +436,23 @@ class CollisionScene:
         postures; sub-samples are at most ``max_step_mm`` and ``max_step_deg``
         apart and are checked with ``check_postures`` (same keyword options).
 
+        Parameters
+        ----------
+        tool : Tool
+            The tool (cutter, shank, holder; mm).
+        tip, axis : (n, 3) array-like
+            Tool tips (mm) and unit axes in the scene frame, n >= 2.
+        max_step_mm : float
+            Largest tip move between sub-samples.
+        max_step_deg : float
+            Largest axis turn between sub-samples.
+        parts, cutter_allowance, cutter_roles, clearance, clearance_cap, clearance_limits
+            As ``check_postures`` (lengths in mm).
+        ends : PostureReport, optional
+            ``check_postures``' report on the same postures (same tool, parts, roles,
+            allowance; ``clearance_cap`` at least this one): only the sub-samples
+            between the postures are then checked.
+
         Returns
         -------
         PostureReport
@@ -424,10 +465,6 @@ class CollisionScene:
             clearance above ``bound`` is contact-free for shank and holder; the
             cutter is contact-free if also checked with ``cutter_allowance``
             lowered by ``bound``.
-
-        ``ends``: ``check_postures``' report on the same postures (same tool,
-        parts, roles, allowance; ``clearance_cap`` at least this one): only the
-        sub-samples between the postures are then checked.
         """
         tip_a, axis_a = validate_postures(tip, axis)
         if len(tip_a) < 2:

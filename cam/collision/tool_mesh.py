@@ -306,6 +306,11 @@ def part_geometry(
         Sections around the axis (>= 8).
     arc_step : float
         Largest angular step of circumscribed arcs, radians.
+
+    Returns
+    -------
+    PartGeometry or None
+        Profile, mesh (mm) and BVH of the part.
     """
     if sections < 8:
         raise InputError("too few sections", field="sections", value=sections, accepted=">= 8")
@@ -340,7 +345,23 @@ def tool_geometry(
     sections: int = DEFAULT_SECTIONS,
     arc_step: float = DEFAULT_ARC_STEP,
 ) -> dict[str, PartGeometry]:
-    """All parts of a tool that exist, by name (cutter, shank, holder order)."""
+    """All parts of a tool that exist, by name (cutter, shank, holder order).
+
+    Parameters
+    ----------
+    tool : Tool
+        The tool (mm).
+    cutter_offset : float
+        Signed offset of the cutter only, mm (> 0 grows).
+    sections : int
+        Sections around the axis (>= 8).
+    arc_step : float
+        Largest angular step of circumscribed arcs, radians.
+
+    Returns
+    -------
+    dict of str to PartGeometry
+    """
     parts: dict[str, PartGeometry] = {}
     for name in PART_NAMES:
         geometry = part_geometry(

@@ -13,17 +13,38 @@ One module per step of the method (seeds 000, second half, and 001):
 * ``plan``: the procedure per path and its result; ``linking``: one toolpath per
   operation; ``plots``: Figs. 12-13; ``command``: ``impeller-cam finish``.
 
-The package import is light (options and reversals); import ``cam.finishing.plan``
-or ``cam.finishing.command`` for the procedure (they pull in the collision service).
+The front door: ``FinishOptions`` and the reversal tools import at once (light);
+``plan_finishing``, ``FinishResult``, ``finish_toolpaths`` and ``run_finish`` load on
+first use (they pull in the collision service).
 """
+
+from typing import TYPE_CHECKING
 
 from cam.finishing.options import FinishOptions, scallop_stepover
 from cam.finishing.reversals import count_reversals, reversal_points, smooth_monotone
+from impeller_cam.lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from cam.finishing.command import finish_toolpaths, run_finish
+    from cam.finishing.plan import FinishResult, plan_finishing
+
+_EXPORTS = {
+    "FinishResult": "cam.finishing.plan",
+    "plan_finishing": "cam.finishing.plan",
+    "finish_toolpaths": "cam.finishing.command",
+    "run_finish": "cam.finishing.command",
+}
 
 __all__ = [
     "FinishOptions",
+    "FinishResult",
     "count_reversals",
+    "finish_toolpaths",
+    "plan_finishing",
     "reversal_points",
+    "run_finish",
     "scallop_stepover",
     "smooth_monotone",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

@@ -78,7 +78,24 @@ def _envelope(surfaces: ImpellerSurfaces, clearance: float) -> Envelope:
 def finish_toolpaths(result: FinishResult, surfaces: ImpellerSurfaces,
                      scene: CollisionScene, kins: Kinematics
                      ) -> dict[str, tuple[Toolpath, np.ndarray, list[dict[str, Any]]]]:
-    """One linked ``Toolpath`` per operation, the mask of its air poses, its links."""
+    """One linked ``Toolpath`` per operation, the mask of its air poses, its links.
+
+    Parameters
+    ----------
+    result : FinishResult
+        The finished paths.
+    surfaces : ImpellerSurfaces
+        The impeller (retract envelope).
+    scene : CollisionScene
+        Collision meshes the links are checked against.
+    kins : Kinematics
+        The machine's kinematics.
+
+    Returns
+    -------
+    dict
+        Operation -> ``(toolpath, air mask (n,) bool, link entries)``; poses in W, mm.
+    """
     tool, options = result.tool, result.options
     feed = float(tool.feed) if tool.feed else 1000.0
     rules = LinkRules(
@@ -166,10 +183,11 @@ def _engagement(scene: StockScene, result: FinishResult, entries: list[dict[str,
 
 
 def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
+               options: FinishOptions | None = None,
                library: str | Path | None = None, scene: str = "solid", plots: bool = True,
                progress: bool | None = None, fillet_tool: str | None = None,
                stock: str | Path | None = None,
-               **options: Any) -> dict[str, Any]:
+               **fields: Any) -> dict[str, Any]:
     """Five-axis finishing of an impeller: APT per operation, finish.json, plots.
 
     Parameters
@@ -182,6 +200,8 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         Tool name in the library (or ``library.toml:name``; see ``resolve_tool``).
     out : str or Path
         Output folder.
+    options : FinishOptions, optional
+        The finishing options (default ``FinishOptions()``; mm, deg).
     library : str or Path, optional
         Tool library (default: fixtures/tools/library.toml).
     scene : str
@@ -200,8 +220,9 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         verify --stock`` takes: a spec's blank, a closed mesh): shank and holder
         keep ``stock_clearance_mm`` from its material beyond ``clearance_mm -
         stock_clearance_mm`` from the design (``scene="solid"`` only).
-    **options
-        Fields of ``FinishOptions`` (mm, deg).
+    **fields
+        Fields of ``FinishOptions`` (mm, deg) replacing those of ``options``, checked
+        like a ``[machining.finish]`` table (unknown names refused).
 
     Returns
     -------
@@ -214,7 +235,9 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         Bad spec, machine, tool or option; a ball that does not fit; an unreachable
         posture. Nothing is written then.
     """
-    opts = FinishOptions.from_mapping(options)
+    opts = options if options is not None else FinishOptions()
+    if fields:
+        opts = FinishOptions.from_mapping({**opts.as_dict(), **fields})
     if scene not in SCENE_SOURCES:
         raise InputError("unknown collision scene source", field="--scene", value=scene,
                          accepted=", ".join(SCENE_SOURCES))

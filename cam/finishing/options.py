@@ -30,6 +30,11 @@ def scallop_stepover(radius: float, scallop: float) -> float:
         Ball radius R, mm.
     scallop : float
         Allowed scallop height h, mm, ``0 < h < R``.
+
+    Returns
+    -------
+    float
+        Stepover w, mm.
     """
     if not 0.0 < scallop < radius:
         raise InputError("scallop height must be positive and below the ball radius",
@@ -233,9 +238,24 @@ class FinishOptions:
 
     @classmethod
     def from_mapping(cls, values: dict[str, Any]) -> FinishOptions:
-        """Build from keyword options, naming an unknown key in an ``InputError``."""
+        """Build from keyword options, naming an unknown key in an ``InputError``.
+
+        Parameters
+        ----------
+        values : dict
+            Field name -> value (a ``[machining.finish]`` table, CLI options).
+
+        Returns
+        -------
+        FinishOptions
+        """
         return options_from_mapping(cls, values, "finishing")
 
     def as_dict(self) -> dict[str, Any]:
-        """The options as a JSON-ready dict (boundary units: mm, deg)."""
+        """The options as a JSON-ready dict (boundary units: mm, deg).
+
+        Returns
+        -------
+        dict
+        """
         return asdict(self)

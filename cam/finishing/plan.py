@@ -332,7 +332,21 @@ def _finish_once(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collisio
 
 @dataclass
 class FinishResult:
-    """All finished paths of a run, in machining order (operation, passage, path)."""
+    """All finished paths of a run, in machining order (operation, passage, path).
+
+    Attributes
+    ----------
+    paths : list of PathResult
+        Each path's final postures (tips mm, axes), joints and checks.
+    tool : Tool
+        The ball-end mill.
+    options : FinishOptions
+        The options planned with (mm, deg).
+    scene_source : str
+        Origin of the collision meshes (``"solid"`` or ``"surfaces"``).
+    extra : dict
+        Further entries of finish.json (stock clearance, fillet operation...).
+    """
 
     paths: list[PathResult]
     tool: Tool
@@ -341,7 +355,12 @@ class FinishResult:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def operations(self) -> dict[str, list[PathResult]]:
-        """Paths grouped by operation: junction, blade, hub, fillet (those present)."""
+        """Paths grouped by operation: junction, blade, hub, fillet (those present).
+
+        Returns
+        -------
+        dict of str to list of PathResult
+        """
         out: dict[str, list[PathResult]] = {}
         for op in ("junction", "blade", "edge", "hub", "fillet"):
             members = [p for p in self.paths if p.path.operation == op]
@@ -350,7 +369,13 @@ class FinishResult:
         return out
 
     def summary(self) -> dict[str, Any]:
-        """The run's totals and per-path entries (finish.json without file names)."""
+        """The run's totals and per-path entries (finish.json without file names).
+
+        Returns
+        -------
+        dict
+            JSON-ready (mm, deg).
+        """
         entries = [p.summary(self.options) for p in self.paths]
         clear = [e["min_clearance_mm"] for e in entries if e["min_clearance_mm"] is not None]
 
@@ -411,6 +436,11 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
         Name of the collision meshes' origin (reported).
     progress : callable, optional
         ``progress(done, total, path_name)`` after each path.
+
+    Returns
+    -------
+    FinishResult
+        Every path of every passage, machining order.
     """
     if tool.shape != "ball":
         raise InputError("five-axis finishing needs a ball-end mill", field="tool",

@@ -79,7 +79,19 @@ def reversal_points(values: Array, deadband: float = 0.0) -> NDArray[np.intp]:
 
 
 def count_reversals(values: Array, deadband: float = 0.0) -> int:
-    """Number of reverse movements (sign changes of the increments beyond the dead band)."""
+    """Number of reverse movements (sign changes of the increments beyond the dead band).
+
+    Parameters
+    ----------
+    values : (n,) float64
+        An axis along a path (rad or mm).
+    deadband : float
+        Increments smaller than this (same unit) are no movement.
+
+    Returns
+    -------
+    int
+    """
     return int(len(reversal_points(values, deadband)))
 
 

@@ -61,6 +61,11 @@ def report_html(out: str | Path, *, render: bool = True) -> str:
         Draw the pictures no stage wrote (tool paths; stock from stock.npz). Off:
         those sections keep their tables and legends (quick tests).
 
+    Returns
+    -------
+    str
+        The HTML page (pictures embedded).
+
     Raises
     ------
     InputError
@@ -91,6 +96,11 @@ def build_report(out: Path, *, render: bool = True) -> Path:
         finish/, nc/, verify/, motion/; any of them may be missing).
     render : bool
         See ``report_html``.
+
+    Returns
+    -------
+    Path
+        ``OUT/report.html``.
 
     Raises
     ------

@@ -76,7 +76,29 @@ PAPER_TABLE1 = {
 
 @dataclass
 class RoughResult:
-    """Everything ``run_rough`` writes, in memory."""
+    """Everything ``run_rough`` writes, in memory.
+
+    Attributes
+    ----------
+    tool : Tool
+        The roughing ball-end mill.
+    options : RoughOptions
+        The options planned with.
+    umrs : list of UMR
+        The unit machining regions, each with its fixed tool axis.
+    segments : list of Segment
+        The 3+2 segments (cutter locations, mm) in cut order.
+    baseline : list of Segment
+        The simultaneous five-axis baseline (``compare``; else empty).
+    floor_area : float
+        Passage floor area, mm^2.
+    r_max : float
+        Largest ball radius the passage admits (eq. 1), mm.
+    d_min : float
+        Narrowest passage width, mm.
+    meshes : dict of str to trimesh.Trimesh
+        Design meshes by face role (mm) the plan was checked against.
+    """
 
     tool: Tool
     options: RoughOptions
@@ -125,6 +147,28 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
     UMR's shank, tilted over its neighbours' part of the passage, meets no stock the
     neighbours' layers above would have removed (issue 8). A UMR's stock map is
     carried over from visit to visit.
+
+    Parameters
+    ----------
+    surfaces : ImpellerSurfaces
+        The impeller (``geometry.build_surfaces``), mm.
+    tool : Tool
+        A ball-end mill no larger than r_max.
+    options : RoughOptions
+        Scallop, depth, spacing, links (mm, deg).
+    progress : callable, optional
+        ``progress(done, total, name)`` after each UMR.
+    compare : bool
+        Also plan the paper's simultaneous five-axis baseline.
+
+    Returns
+    -------
+    RoughResult
+
+    Raises
+    ------
+    InputError
+        A tool larger than r_max, an unreachable posture.
     """
     spec = surfaces.spec
     eta = spec.finishing_allowance
@@ -228,7 +272,18 @@ def _times(result: RoughResult, machine: Any, kins: Any, segments: list[Segment]
 
 def toolpaths(result: RoughResult) -> list[Toolpath]:
     """One ``Toolpath`` per visit of a UMR (its layers in all passages, one 3+2
-    segment each), in cut order."""
+    segment each), in cut order.
+
+    Parameters
+    ----------
+    result : RoughResult
+        A roughing plan.
+
+    Returns
+    -------
+    list of Toolpath
+        Poses in the workpiece frame W (mm), feeds mm/min.
+    """
     tool = result.tool
     feed = float(tool.feed) if tool.feed else 1000.0
     out = []
@@ -259,8 +314,9 @@ def toolpaths(result: RoughResult) -> list[Toolpath]:
 
 
 def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
-              library: str | Path | None = None, progress: bool | None = None,
-              check: bool = True, compare: bool = False, **options: Any) -> dict[str, Any]:
+              options: RoughOptions | None = None, library: str | Path | None = None,
+              progress: bool | None = None, check: bool = True, compare: bool = False
+              ) -> dict[str, Any]:
     """Three-axis UMR roughing of an impeller: APT per UMR and rough.json.
 
     Parameters
@@ -273,6 +329,9 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
         Tool name in the library (a ball-end mill no larger than r_max).
     out : str or Path
         Output folder.
+    options : RoughOptions, optional
+        The roughing options (default ``RoughOptions()``; mm, deg); the CLI and the
+        spec's ``[machining.rough]`` table build them with ``RoughOptions.from_mapping``.
     library : str or Path, optional
         Tool library (default: fixtures/tools/library.toml).
     progress : bool, optional
@@ -283,8 +342,6 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
         Also plan, time and check the paper's simultaneous five-axis baseline and
         write its Table 1 (``table1.md``; the ``5axis`` entries of rough.json). The
         chain's main job leaves it out: it is a research comparison, not a program.
-    **options
-        Fields of ``RoughOptions``.
 
     Returns
     -------
@@ -300,7 +357,7 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
     from postproc.kinematics import kinematics_for
     from postproc.machine import load_machine
 
-    opts = RoughOptions.from_mapping(options)
+    opts = options if options is not None else RoughOptions()
     the_tool = resolve_tool(tool, library)
     the_machine = load_machine(machine)
     kins = kinematics_for(the_machine)

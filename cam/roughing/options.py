@@ -145,9 +145,30 @@ class RoughOptions:
 
     @classmethod
     def from_mapping(cls, options: dict[str, Any]) -> RoughOptions:
-        """Build from keyword options, refusing unknown names."""
+        """Build from keyword options, refusing unknown names.
+
+        Parameters
+        ----------
+        options : dict
+            Field name -> value (a ``[machining.rough]`` table, CLI options).
+
+        Returns
+        -------
+        RoughOptions
+
+        Raises
+        ------
+        InputError
+            An unknown name (with the nearest valid one), a wrong type, a bad range.
+        """
         return options_from_mapping(cls, options, "roughing")
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON-ready dict."""
+        """JSON-ready dict.
+
+        Returns
+        -------
+        dict
+            Field name -> value (mm, deg).
+        """
         return asdict(self)

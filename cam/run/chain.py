@@ -12,6 +12,7 @@ stages after a rerun one are marked ``"stale": true`` in run.json.
 from __future__ import annotations
 
 import traceback
+from collections.abc import Mapping
 from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
@@ -81,7 +82,13 @@ def run_chain(
     only: str | None = None,
     start: str | None = None,
     progress: bool | None = None,
-    **settings: Any,
+    rough: Mapping[str, Any] | None = None,
+    finish: Mapping[str, Any] | None = None,
+    fillet_tool: str | None = None,
+    verify_resolution_mm: float | None = None,
+    tessellation_mm: float | None = None,
+    servo: bool | None = None,
+    indexing_grid: str | None = None,
 ) -> dict[str, Any]:
     """Run the chain (or some stages of it) for one impeller spec.
 
@@ -104,9 +111,19 @@ def run_chain(
         Run from this stage to the end.
     progress : bool, optional
         Progress bar across stages (default: when stderr is a terminal).
-    **settings
-        ``rough`` / ``finish`` option dicts, ``verify_resolution_mm``,
-        ``tessellation_mm``, ``servo``, ``indexing_grid`` (``resolve_settings``).
+    rough, finish : mapping, optional
+        ``RoughOptions`` / ``FinishOptions`` fields (mm, deg) over the spec's
+        ``[machining.rough]`` / ``[machining.finish]`` tables, key by key.
+    fillet_tool : str, optional
+        Ball of the fillet pencil passes (default: the spec's, else chosen).
+    verify_resolution_mm : float, optional
+        Dexel spacing of the verifications (default: the spec's, else 0.1 mm).
+    tessellation_mm : float, optional
+        Tessellation of the geometry stage's STL and render (default: the spec's).
+    servo : bool, optional
+        Run the motion stage's servo-lag prediction (default True).
+    indexing_grid : str, optional
+        ``"coarse"`` (default) or ``"paper"`` (the motion stage's index optimisation).
 
     Returns
     -------
@@ -121,6 +138,10 @@ def run_chain(
         A stage's internal error, after it is recorded in run.json.
     """
     spec, machine, out = Path(spec), Path(machine), Path(out)
+    given = {"rough": rough, "finish": finish, "fillet_tool": fillet_tool,
+             "verify_resolution_mm": verify_resolution_mm, "tessellation_mm": tessellation_mm,
+             "servo": servo, "indexing_grid": indexing_grid}
+    settings = {key: value for key, value in given.items() if value is not None}
     if not machine.is_file():
         raise InputError("machine file not found", file=machine, field="-m",
                          value=str(machine), accepted="an existing machine TOML")

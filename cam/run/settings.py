@@ -65,7 +65,12 @@ class RunSettings:
     fillet_tool: str | None = None
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON-ready (run.json ``settings``)."""
+        """JSON-ready (run.json ``settings``).
+
+        Returns
+        -------
+        dict
+        """
         return asdict(self)
 
 
@@ -107,6 +112,11 @@ def resolve_settings(
         ``rough`` / ``finish`` (dicts merged over the spec's sub-tables, key by key),
         ``verify_resolution_mm``, ``tessellation_mm``, ``servo``, ``indexing_grid``,
         ``fillet_tool`` (over the spec's).
+
+    Returns
+    -------
+    RunSettings
+        Tools, post, verification resolution (mm), option dicts of the stages.
 
     Raises
     ------

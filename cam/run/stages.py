@@ -70,9 +70,10 @@ def rough_options(ctx: Context) -> dict[str, Any]:
 def rough_stage(ctx: Context) -> None:
     """UMR roughing (``run_rough``) with the roughing tool (``rough_options``)."""
     from cam.roughing.command import run_rough
+    from cam.roughing.options import RoughOptions
 
     run_rough(ctx.spec, ctx.machine, ctx.settings.rough_tool, ctx.out / "rough",
-              progress=False, **rough_options(ctx))
+              options=RoughOptions.from_mapping(rough_options(ctx)), progress=False)
 
 
 def rough_allowance(ctx: Context) -> float:
@@ -134,12 +135,13 @@ def finish_stage(ctx: Context) -> None:
     (``run_finish``) with the finishing tool (``finish_options``) against that stock,
     and the fillet pencil passes with ``fillet_tool``."""
     from cam.finishing.command import run_finish
+    from cam.finishing.options import FinishOptions
     from cam.run.rough_stock import verify_rough
 
     stock = verify_rough(ctx)
     run_finish(ctx.spec, ctx.machine, ctx.settings.finish_tool, ctx.out / "finish",
-               progress=False, fillet_tool=fillet_tool(ctx), stock=stock,
-               **finish_options(ctx))
+               options=FinishOptions.from_mapping(finish_options(ctx)), progress=False,
+               fillet_tool=fillet_tool(ctx), stock=stock)
 
 
 def apt_files(ctx: Context) -> list[tuple[str, str, str]]:

@@ -119,6 +119,18 @@ class DesignDistance:
         edge of a thin blade). Then their sign is confirmed by ray parity
         (``MeshParity``, majority of three axis rays): where the surface folds over
         itself the nearest sheet faces inwards, and a point in the air reads inside.
+
+        Parameters
+        ----------
+        points : (n, 3) float64
+            Query points, mm.
+
+        Returns
+        -------
+        distance : (n,) float64
+            Signed distance, mm (+ outside the design).
+        face : (n,) int64
+            Index of the closest input face.
         """
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         out = np.empty(len(points))
@@ -179,7 +191,12 @@ class Deviation:
     faces: NDArray[np.int64] | None = None
 
     def summary(self) -> dict[str, Any]:
-        """Min, max, mean absolute deviation (mm) and sample count for verify.json."""
+        """Min, max, mean absolute deviation (mm) and sample count for verify.json.
+
+        Returns
+        -------
+        dict
+        """
         if len(self.distance) == 0:
             return {"samples": 0}
         return {

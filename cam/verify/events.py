@@ -62,7 +62,12 @@ class Event:
             raise ValueError(f"unknown event type {self.type!r}; accepted: {EVENT_TYPES}")
 
     def to_json(self) -> dict[str, Any]:
-        """JSON-ready dict (docs/formats.md)."""
+        """JSON-ready dict (docs/formats.md).
+
+        Returns
+        -------
+        dict
+        """
         return {
             "type": self.type,
             "line": int(self.line),

@@ -246,6 +246,11 @@ def program_moves(
         zero joints); True makes the first block a move from its own end pose, so
         the unknown approach neither cuts nor collides. False sweeps it from
         ``program.start``.
+
+    Returns
+    -------
+    ToolMoves
+        Straight fixed-axis sub-moves (tips mm, axes) tied to their NC lines.
     """
     n_blocks = len(program)
     poser = _Poser(kins, program, tool_length, start_at_first)

@@ -141,7 +141,19 @@ class Stock:
 
     @classmethod
     def box(cls, lower: NDArray[np.float64], upper: NDArray[np.float64], pitch: float) -> Stock:
-        """An axis-aligned box ``lower..upper`` (mm) at ray spacing ``pitch``."""
+        """An axis-aligned box ``lower..upper`` at ray spacing ``pitch``.
+
+        Parameters
+        ----------
+        lower, upper : (3,) float64
+            Opposite corners, mm.
+        pitch : float
+            Ray spacing, mm.
+
+        Returns
+        -------
+        Stock
+        """
         cls._check_pitch(pitch)
         lower = np.asarray(lower, dtype=np.float64)
         upper = np.asarray(upper, dtype=np.float64)
@@ -165,7 +177,25 @@ class Stock:
     def cylinder(
         cls, diameter: float, height: float, pitch: float, z0: float = 0.0, bore: float = 0.0
     ) -> Stock:
-        """A cylinder on the Z axis from ``z0`` to ``z0 + height`` (mm), optional bore radius."""
+        """A cylinder on the Z axis from ``z0`` to ``z0 + height``, optional bore.
+
+        Parameters
+        ----------
+        diameter : float
+            Outer diameter, mm.
+        height : float
+            Height, mm.
+        pitch : float
+            Ray spacing, mm.
+        z0 : float
+            Bottom face, mm.
+        bore : float
+            Bore radius, mm (0: none).
+
+        Returns
+        -------
+        Stock
+        """
         cls._check_pitch(pitch)
         radius = 0.5 * diameter
         if not (radius > 0 and height > 0 and 0 <= bore < radius):
@@ -213,7 +243,15 @@ class Stock:
         Parameters
         ----------
         vertices : (v, 3) float64
+            Mesh vertices, mm.
         faces : (f, 3) int64
+            Triangles (vertex indices).
+        pitch : float
+            Ray spacing, mm.
+
+        Returns
+        -------
+        Stock
         """
         cls._check_pitch(pitch)
         vertices = np.asarray(vertices, dtype=np.float64)
@@ -232,9 +270,22 @@ class Stock:
     def revolved(
         cls, profile: NDArray[np.float64], pitch: float, sections: int = 1440
     ) -> Stock:
-        """A turned solid: the closed meridional polygon ``profile`` (k, 2) of (r, z) mm
-        revolved about Z (``sections`` facets around; 1440 facets at r = 100 mm deviate
-        from the circle by 0.0024 mm)."""
+        """A turned solid: a closed meridional polygon revolved about Z.
+
+        Parameters
+        ----------
+        profile : (k, 2) float64
+            ``(r, z)`` polygon, mm.
+        pitch : float
+            Ray spacing, mm.
+        sections : int
+            Facets around (1440 facets at r = 100 mm deviate from the circle by
+            0.0024 mm).
+
+        Returns
+        -------
+        Stock
+        """
         import trimesh
 
         profile = np.asarray(profile, dtype=np.float64)
@@ -249,13 +300,29 @@ class Stock:
 
     # ------------------------------------------------------------------ queries
     def volume(self) -> float:
-        """Material volume, mm^3: mean of the three grids' estimates."""
+        """Material volume: mean of the three grids' estimates.
+
+        Returns
+        -------
+        float
+            mm^3.
+        """
         return float(np.mean([g.volume() for g in self.grids]))
 
     def surface_samples(
         self,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int32]]:
-        """Interval ends of all three grids: points (n, 3), normals (n, 3), move ids (n,)."""
+        """Interval ends of all three grids.
+
+        Returns
+        -------
+        points : (n, 3) float64
+            mm.
+        normals : (n, 3) float64
+            Unit outward normals.
+        moves : (n,) int32
+            Id of the move that made each end (index of ``owners``; -1: initial).
+        """
         parts = [g.ends() for g in self.grids]
         return (
             np.vstack([p[0] for p in parts]),
@@ -264,7 +331,12 @@ class Stock:
         )
 
     def memory_bytes(self) -> int:
-        """Bytes held by the three grids' arrays."""
+        """Bytes held by the three grids' arrays.
+
+        Returns
+        -------
+        int
+        """
         return int(
             sum(
                 g.lo.nbytes + g.hi.nbytes + g.lo_move.nbytes + g.hi_move.nbytes
@@ -334,7 +406,18 @@ class Stock:
 
     # ------------------------------------------------------------------ state I/O
     def save(self, path: str | Path) -> Path:
-        """Write the state to ``path`` (``.npz``, atomically; docs/formats.md)."""
+        """Write the state to ``path`` (``.npz``, atomically; docs/formats.md).
+
+        Parameters
+        ----------
+        path : str or Path
+            The ``.npz`` file.
+
+        Returns
+        -------
+        Path
+            ``path``.
+        """
         import io
 
         arrays: dict[str, NDArray] = {
@@ -352,7 +435,17 @@ class Stock:
 
     @classmethod
     def load(cls, path: str | Path) -> Stock:
-        """Read a state written by ``save``."""
+        """Read a state written by ``save``.
+
+        Parameters
+        ----------
+        path : str or Path
+            The ``.npz`` file.
+
+        Returns
+        -------
+        Stock
+        """
         path = Path(path)
         try:
             with np.load(path) as data:

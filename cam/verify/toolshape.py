@@ -109,6 +109,11 @@ def tool_shape(tool: Tool, corner_segments: int = CORNER_SEGMENTS) -> ToolShape:
         Cutter, shank and holder (lengths in mm).
     corner_segments : int
         Frusta replacing a bull-nose corner (ignored for ball and flat end mills).
+
+    Returns
+    -------
+    ToolShape
+        Spheres, frusta and cylinders along the tool axis (mm).
     """
     radius, corner, flute = tool.radius, tool.corner_radius, tool.flute_length
     rows: list[NDArray[np.float64]] = []

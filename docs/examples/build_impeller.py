@@ -1,20 +1,21 @@
 """Geometry script: design a variant, build it, export it, and read its figures.
 
-Run from the project folder: ``.venv/bin/python docs/examples/build_impeller.py``.
-It writes into ``out/example/``.
+Run from anywhere: ``.venv/bin/python docs/examples/build_impeller.py [OUT]``.
+It writes into ``OUT`` (default ``out/example/``).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 from pathlib import Path
 
 from geometry.design import load_design, write_design
 from geometry.impeller import Impeller
 
 HERE = Path(__file__).resolve().parents[2]
-OUT = HERE / "out" / "example"
+OUT = Path(sys.argv[1]) if len(sys.argv) > 1 else HERE / "out" / "example"
 
 # 1. Start from the small fixture's design parameters and make a variant:
 #    7 blades and a 2 degree mid-span twist (a non-ruled blade).

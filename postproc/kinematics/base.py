@@ -182,7 +182,23 @@ class Kinematics(Protocol):
     def forward(
         self, joints: NDArray[np.float64], tool_length: float = 0.0
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Joints ``(n, 5)`` -> tool tip ``(n, 3)`` mm and unit axis ``(n, 3)`` in W."""
+        """Joints -> tool poses in W.
+
+        Parameters
+        ----------
+        joints : (n, 5) float64
+            X, Y, Z (mm) and the two rotary joints (rad).
+        tool_length : float
+            Tip distance below the controlled point along machine Z, mm (0: the joints
+            command the tip).
+
+        Returns
+        -------
+        tip : (n, 3) float64
+            Tool tip in W, mm.
+        axis : (n, 3) float64
+            Unit tool axis in W (tip towards spindle).
+        """
         ...
 
     def inverse(
@@ -194,9 +210,25 @@ class Kinematics(Protocol):
         *,
         records: NDArray[np.int64] | None = None,
     ) -> NDArray[np.float64]:
-        """Tool poses -> joints ``(n, 5)`` on the continuous, least-travel branch.
+        """Tool poses -> joints on the continuous, least-travel branch.
 
-        ``records`` (n,) are quoted in an ``OverTravelError``.
+        Parameters
+        ----------
+        tip : (n, 3) float64
+            Tool tips in W, mm.
+        axis : (n, 3) float64
+            Tool axes in W (normalised).
+        tool_length : float
+            Tip distance below the controlled point along machine Z, mm.
+        previous : (5,) float64, optional
+            Joints before the first pose (mm, rad).
+        records : (n,) int64, optional
+            Source record of each pose, quoted in an ``OverTravelError``.
+
+        Returns
+        -------
+        (n, 5) float64
+            X, Y, Z (mm) and the rotary joints (rad).
         """
         ...
 
@@ -206,10 +238,36 @@ class Kinematics(Protocol):
         axis: NDArray[np.float64],
         tool_length: float = 0.0,
     ) -> NDArray[np.float64]:
-        """Both raw inverse solutions ``(2, n, 5)``: tilt >= 0 first, C in (-pi, pi]."""
+        """Both raw inverse solutions.
+
+        Parameters
+        ----------
+        tip : (n, 3) float64
+            Tool tips in W, mm.
+        axis : (n, 3) float64
+            Tool axes in W (normalised).
+        tool_length : float
+            Tip distance below the controlled point along machine Z, mm.
+
+        Returns
+        -------
+        (2, n, 5) float64
+            Tilt >= 0 first; C in (-pi, pi] (mm, rad).
+        """
         ...
 
     def world_from_workpiece(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Controller world coordinates of W points ``(n, 3)``, mm: what a tool-centre-
-        point program commands with no work offset active."""
+        """Controller world coordinates of W points: what a tool-centre-point program
+        commands with no work offset active.
+
+        Parameters
+        ----------
+        points : (n, 3) float64
+            Points in W, mm.
+
+        Returns
+        -------
+        (n, 3) float64
+            World coordinates, mm.
+        """
         ...

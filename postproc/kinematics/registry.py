@@ -53,6 +53,11 @@ def register_kinematics(name: str) -> Callable[[_T], _T]:
     name : str
         Registry key used in machine files (``kinematics = "xyzac-trt"``).
 
+    Returns
+    -------
+    callable
+        The decorator (returns the class unchanged).
+
     Raises
     ------
     ValueError
@@ -85,13 +90,30 @@ def _load_entry_points() -> None:
 
 
 def available_kinematics() -> list[str]:
-    """Names of all registered kinematics, sorted."""
+    """Names of all registered kinematics, sorted.
+
+    Returns
+    -------
+    list of str
+    """
     _load_entry_points()
     return sorted(_REGISTRY)
 
 
 def kinematics_class(name: str, file: str | Path | None = None) -> Any:
     """The class registered under ``name``.
+
+    Parameters
+    ----------
+    name : str
+        Registry key (``kinematics`` of a machine file).
+    file : str or Path, optional
+        The machine file, named in the error.
+
+    Returns
+    -------
+    type
+        The kinematics class (constructed with a ``Machine``).
 
     Raises
     ------
@@ -112,7 +134,20 @@ def kinematics_class(name: str, file: str | Path | None = None) -> Any:
 
 
 def joint_names_for(name: str, file: str | Path | None = None) -> tuple[str, ...]:
-    """Joint names of the kinematics ``name``, e.g. ``("X", "Y", "Z", "A", "C")``."""
+    """Joint names of the kinematics ``name``.
+
+    Parameters
+    ----------
+    name : str
+        Registry key.
+    file : str or Path, optional
+        The machine file, named in an error.
+
+    Returns
+    -------
+    tuple of str
+        E.g. ``("X", "Y", "Z", "A", "C")``.
+    """
     cls = kinematics_class(name, file)
     if isinstance(cls, _BrokenKinematics):
         raise cls.error
@@ -120,7 +155,18 @@ def joint_names_for(name: str, file: str | Path | None = None) -> tuple[str, ...
 
 
 def kinematics_for(machine: Machine) -> Kinematics:
-    """Construct the kinematics named by ``machine.kinematics`` for ``machine``."""
+    """Construct the kinematics named by ``machine.kinematics`` for ``machine``.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine (pivot offsets mm, limits).
+
+    Returns
+    -------
+    Kinematics
+        Forward and inverse transforms between joints (mm, rad) and tool poses in W.
+    """
     cls = kinematics_class(machine.kinematics, machine.source)
     instance: Kinematics = cls(machine)
     return instance

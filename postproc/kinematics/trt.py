@@ -39,7 +39,8 @@ if TYPE_CHECKING:
     from postproc.machine import Machine
 
 
-def rotate(vectors: NDArray[np.float64], angle: NDArray[np.float64], about: int) -> NDArray:
+def rotate(vectors: NDArray[np.float64], angle: NDArray[np.float64], about: int
+           ) -> NDArray[np.float64]:
     """Rotate each row of ``vectors`` by its own right-handed ``angle`` about a frame axis.
 
     Parameters
@@ -130,7 +131,8 @@ def trt_inverse_position(
     (n, 3) float64
     """
     moved = rotate(rotate(tip, sign * c, 2) - offset, sign * tilt, tilt_about)
-    return moved + rot_point + offset + np.array([0.0, 0.0, tool_length])
+    return np.asarray(moved + rot_point + offset + np.array([0.0, 0.0, tool_length]),
+                      dtype=np.float64)
 
 
 def tool_axis_angles(
@@ -196,7 +198,12 @@ class TableTiltingRotary:
     """A tilting table (A about X or B about Y) carrying a rotary table C.
 
     Subclasses set ``tilt_about``, ``joint_names`` and how the pivot offsets map to the
-    offset vector. Construct with the ``Machine``.
+    offset vector.
+
+    Parameters
+    ----------
+    machine : Machine
+        Pivot offsets (mm), axis directions and limits.
     """
 
     name: ClassVar[str] = ""
@@ -213,7 +220,17 @@ class TableTiltingRotary:
 
     @staticmethod
     def pivot_offset(machine: Machine) -> NDArray[np.float64]:
-        """Tilt pivot relative to the C rotation point, (3,) mm."""
+        """Tilt pivot relative to the C rotation point.
+
+        Parameters
+        ----------
+        machine : Machine
+
+        Returns
+        -------
+        (3,) float64
+            mm.
+        """
         raise NotImplementedError
 
     # ------------------------------------------------------------------ forward
@@ -246,8 +263,19 @@ class TableTiltingRotary:
 
         This is what a tool-centre-point program commands when no work offset is
         active: ``points + rot_point``.
+
+        Parameters
+        ----------
+        points : (n, 3) float64
+            Points in W, mm.
+
+        Returns
+        -------
+        (n, 3) float64
+            mm.
         """
-        return np.asarray(points, dtype=np.float64) + self.rot_point
+        return np.asarray(np.asarray(points, dtype=np.float64) + self.rot_point,
+                          dtype=np.float64)
 
     # ------------------------------------------------------------------ inverse
     def _raw_branches(
@@ -270,6 +298,15 @@ class TableTiltingRotary:
         tool_length: float = 0.0,
     ) -> NDArray[np.float64]:
         """Both raw inverse solutions, without limits, winding or singularity handling.
+
+        Parameters
+        ----------
+        tip : (n, 3) float64
+            Tool tips in W, mm.
+        axis : (n, 3) float64
+            Tool axes in W (normalised).
+        tool_length : float
+            Tip distance below the controlled point along machine Z, mm.
 
         Returns
         -------

@@ -30,5 +30,15 @@ class XyzacTrt(TableTiltingRotary):
 
     @staticmethod
     def pivot_offset(machine: Machine) -> NDArray[np.float64]:
-        """A pivot relative to the C rotation point: ``(0, y_offset, z_offset)``, mm."""
+        """A pivot relative to the C rotation point.
+
+        Parameters
+        ----------
+        machine : Machine
+
+        Returns
+        -------
+        (3,) float64
+            ``(0, y_offset, z_offset)``, mm.
+        """
         return np.array([0.0, machine.pivot.y_offset, machine.pivot.z_offset])

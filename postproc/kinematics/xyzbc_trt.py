@@ -29,5 +29,15 @@ class XyzbcTrt(TableTiltingRotary):
 
     @staticmethod
     def pivot_offset(machine: Machine) -> NDArray[np.float64]:
-        """B pivot relative to the C rotation point: ``(x_offset, 0, z_offset)``, mm."""
+        """B pivot relative to the C rotation point.
+
+        Parameters
+        ----------
+        machine : Machine
+
+        Returns
+        -------
+        (3,) float64
+            ``(x_offset, 0, z_offset)``, mm.
+        """
         return np.array([machine.pivot.x_offset, 0.0, machine.pivot.z_offset])

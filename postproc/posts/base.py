@@ -105,7 +105,19 @@ class PostOptions:
     dialect_options: Mapping[str, str] = field(default_factory=dict)
 
     def option(self, name: str, default: str) -> str:
-        """The dialect option ``name`` (``default`` when not given)."""
+        """The dialect option ``name`` (``default`` when not given).
+
+        Parameters
+        ----------
+        name : str
+            Option name (``[control.options]`` key or ``--post-option KEY``).
+        default : str
+            Value when the option is not given.
+
+        Returns
+        -------
+        str
+        """
         return str(self.dialect_options.get(name, default))
 
     def __post_init__(self) -> None:
@@ -157,7 +169,19 @@ class PostProcessor(Protocol):
     supports_tcp: bool
 
     def write(self, program: PostedProgram, options: PostOptions) -> str:
-        """Return the complete program text for ``program`` (ends with a newline)."""
+        """The complete program text for ``program`` (ends with a newline).
+
+        Parameters
+        ----------
+        program : PostedProgram
+            The posted program (joints mm, rad).
+        options : PostOptions
+            The posting options.
+
+        Returns
+        -------
+        str
+        """
         ...
 
 
@@ -184,7 +208,19 @@ def _instantiate(obj: Any) -> PostProcessor:
 
 
 def register_post(cls: type[Any]) -> type[Any]:
-    """Class decorator: register a built-in (or in-process) dialect under ``cls.name``."""
+    """Class decorator: register a built-in (or in-process) dialect under ``cls.name``.
+
+    Parameters
+    ----------
+    cls : type
+        The dialect class (``name``, ``description``, ``extension``, ``supports_tcp``,
+        ``write``).
+
+    Returns
+    -------
+    type
+        ``cls`` unchanged.
+    """
     name = str(cls.name)
     _REGISTRY[name] = _Entry(name, str(cls.description), "built-in",
                              lambda: _instantiate(cls))
@@ -193,7 +229,19 @@ def register_post(cls: type[Any]) -> type[Any]:
 
 def register_unavailable(name: str, description: str, error: BaseException,
                          source: str = "built-in") -> None:
-    """Register a dialect whose import failed; ``get_post(name)`` re-raises ``error``."""
+    """Register a dialect whose import failed; ``get_post(name)`` re-raises ``error``.
+
+    Parameters
+    ----------
+    name : str
+        Dialect name.
+    description : str
+        What it is (listed with the error by ``impeller-cam posts``).
+    error : BaseException
+        The import error.
+    source : str
+        Where the dialect comes from (``built-in`` or an entry point).
+    """
 
     def load() -> PostProcessor:
         raise error
@@ -225,7 +273,13 @@ def _scan_entry_points() -> None:
 
 
 def available_posts() -> list[tuple[str, str, str]]:
-    """All registered dialects as ``(name, description, source)``, sorted by name."""
+    """All registered dialects, sorted by name.
+
+    Returns
+    -------
+    list of (str, str, str)
+        ``(name, description, source)`` of each dialect.
+    """
     _load_builtins()
     _scan_entry_points()
     return [(e.name, e.description, e.source) for _, e in sorted(_REGISTRY.items())]
@@ -233,6 +287,15 @@ def available_posts() -> list[tuple[str, str, str]]:
 
 def get_post(name: str) -> PostProcessor:
     """The dialect registered as ``name``.
+
+    Parameters
+    ----------
+    name : str
+        Dialect name (``impeller-cam posts``).
+
+    Returns
+    -------
+    PostProcessor
 
     Raises
     ------

@@ -119,69 +119,251 @@ class GCodeWriter:
 
     # ------------------------------------------------------------ dialect hooks
     def program_start(self, program: PostedProgram, options: PostOptions) -> list[str]:
-        """Lines before the header comments (``%``, ``O`` number)."""
+        """Lines before the header comments (``%``, ``O`` number).
+
+        Parameters
+        ----------
+        program : PostedProgram
+            The posted program (joints mm, rad).
+        options : PostOptions
+            The posting options.
+
+        Returns
+        -------
+        list of str
+            NC lines.
+        """
         return []
 
     def preamble(self, program: PostedProgram, options: PostOptions) -> list[str]:
-        """Modal set-up lines after the header comments."""
+        """Modal set-up lines after the header comments.
+
+        Parameters
+        ----------
+        program : PostedProgram
+            The posted program (joints mm, rad).
+        options : PostOptions
+            The posting options.
+
+        Returns
+        -------
+        list of str
+            NC lines.
+        """
         return ["G21 G17 G40 G49 G80 G90 G94 G54"]
 
     def tcp_on(self, tool: int) -> tuple[list[str], str]:
-        """Lines that switch tool-centre-point control on, and a prefix for the next move."""
+        """Lines that switch tool-centre-point control on, and a prefix for the next move.
+
+        Parameters
+        ----------
+        tool : int
+            Tool number (its length compensation).
+
+        Returns
+        -------
+        lines : list of str
+            NC lines.
+        prefix : str
+            Words for the next move.
+        """
         raise NotImplementedError
 
     def tcp_off(self, tool: int) -> tuple[list[str], str]:
-        """Lines that switch tool-centre-point control off, and a prefix for the next move."""
+        """Lines that switch tool-centre-point control off, and a prefix for the next move.
+
+        Parameters
+        ----------
+        tool : int
+            Tool number (its length compensation).
+
+        Returns
+        -------
+        lines : list of str
+            NC lines.
+        prefix : str
+            Words for the next move.
+        """
         raise NotImplementedError
 
     def program_end(self, options: PostOptions) -> list[str]:
-        """Lines that end the program."""
+        """Lines that end the program.
+
+        Parameters
+        ----------
+        options : PostOptions
+            The posting options.
+
+        Returns
+        -------
+        list of str
+            NC lines.
+        """
         return ["M2"]
 
     def tool_call(self, op: OperationInfo, options: PostOptions) -> list[str]:
-        """Lines that load the operation's tool (after spindle and coolant stop)."""
+        """Lines that load the operation's tool (after spindle and coolant stop).
+
+        Parameters
+        ----------
+        op : OperationInfo
+            The operation (tool number, cutter, name).
+        options : PostOptions
+            The posting options.
+
+        Returns
+        -------
+        list of str
+            NC lines.
+        """
         return [f"T{op.tool_number} M6"]
 
     def length_prefix(self, tool: int) -> str:
-        """Words on the first move after a tool change (tool-length compensation)."""
+        """Words on the first move after a tool change (tool-length compensation).
+
+        Parameters
+        ----------
+        tool : int
+            Tool number.
+
+        Returns
+        -------
+        str
+        """
         return f"G43 H{tool}"
 
     def operation_start(self, program: PostedProgram, index: int,
                         options: PostOptions) -> list[str]:
-        """Lines after the spindle and coolant words of operation ``index``."""
+        """Lines after the spindle and coolant words of operation ``index``.
+
+        Parameters
+        ----------
+        program : PostedProgram
+            The posted program (joints mm, rad).
+        index : int
+            Operation index.
+        options : PostOptions
+            The posting options.
+
+        Returns
+        -------
+        list of str
+            NC lines.
+        """
         return []
 
     def feed_words(self, program: PostedProgram,
                    options: PostOptions) -> tuple[NDArray[np.int16], NDArray[np.float64]] | None:
-        """(feed mode, F) per block when the dialect writes other feeds; None: as posted."""
+        """(feed mode, F) per block when the dialect writes other feeds; None: as posted.
+
+        Parameters
+        ----------
+        program : PostedProgram
+            The posted program (joints mm, rad).
+        options : PostOptions
+            The posting options.
+
+        Returns
+        -------
+        (n,) int16 and (n,) float64, or None
+            Feed mode and F word (mm/min or inverse time) per block.
+        """
         return None
 
     def swivel(self, program: PostedProgram, options: PostOptions) -> Swivel | None:
-        """3+2 segments to write in tilted frames (``postproc.posts.frames``); None: none."""
+        """3+2 segments to write in tilted frames (``postproc.posts.frames``); None: none.
+
+        Parameters
+        ----------
+        program : PostedProgram
+            The posted program (joints mm, rad).
+        options : PostOptions
+            The posting options.
+
+        Returns
+        -------
+        Swivel or None
+        """
         return None
 
     def frame_on(self, swivel: Swivel, frame: int, options: PostOptions) -> list[str]:
-        """Lines that activate tilted frame ``frame`` (rotary axes already there)."""
+        """Lines that activate tilted frame ``frame`` (rotary axes already there).
+
+        Parameters
+        ----------
+        swivel : Swivel
+            The 3+2 segments in tilted frames.
+        frame : int
+            Frame index in ``swivel``.
+        options : PostOptions
+            The posting options.
+
+        Returns
+        -------
+        list of str
+            NC lines.
+        """
         raise NotImplementedError
 
     def frame_off(self) -> list[str]:
-        """Lines that cancel the tilted frame."""
+        """Lines that cancel the tilted frame.
+
+        Returns
+        -------
+        list of str
+            NC lines.
+        """
         raise NotImplementedError
 
     # ------------------------------------------------------------ shared text
     def comment(self, text: object) -> str:
-        """A sanitised comment line."""
+        """A sanitised comment line.
+
+        Parameters
+        ----------
+        text : object
+            The comment (its ``str``; characters the control rejects replaced).
+
+        Returns
+        -------
+        str
+        """
         return f"({sanitise_comment(text, upper=self.upper_comments)})"
 
     def operation_comment(self, index: int, op: OperationInfo) -> str:
-        """The comment that opens operation ``index``."""
+        """The comment that opens operation ``index``.
+
+        Parameters
+        ----------
+        index : int
+            Operation index.
+        op : OperationInfo
+            The operation (name, tool number, cutter in mm).
+
+        Returns
+        -------
+        str
+        """
         text = f"OPERATION {index + 1}: {sanitise_comment(op.name)} - TOOL {op.tool_number}"
         if op.cutter is not None:
             text += f" D{op.cutter.diameter:g} R{op.cutter.corner_radius:g}"
         return self.comment(text)
 
     def header(self, program: PostedProgram, options: PostOptions) -> list[str]:
-        """Comments describing the program (deterministic: no dates, no paths)."""
+        """Comments describing the program (deterministic: no dates, no paths).
+
+        Parameters
+        ----------
+        program : PostedProgram
+            The posted program (joints mm, rad).
+        options : PostOptions
+            The posting options.
+
+        Returns
+        -------
+        list of str
+            NC lines.
+        """
         mode = "TCP" if options.tcp else "joint"
         lines = [
             self.comment(f"impeller-cam post {self.name}"),
@@ -198,7 +380,19 @@ class GCodeWriter:
 
     # ------------------------------------------------------------ the program
     def write(self, program: PostedProgram, options: PostOptions) -> str:
-        """Return the program text (ASCII, ``\\n`` line ends, ends with a newline)."""
+        """The program text (ASCII, ``\\n`` line ends, ends with a newline).
+
+        Parameters
+        ----------
+        program : PostedProgram
+            The posted program (joints mm, rad).
+        options : PostOptions
+            The posting options.
+
+        Returns
+        -------
+        str
+        """
         self._numbered = options.block_numbers
         self._increment = options.block_increment
         self._counter = 0
@@ -382,6 +576,24 @@ class GCodeWriter:
         ``emit`` (n, 5) says which of X, Y, Z, A, C change; a dialect that writes the
         orientation otherwise (tool-direction vectors) overrides this and may set
         ``emit`` for rows whose orientation words change (in place).
+
+        Parameters
+        ----------
+        words : _Words
+            The program's quantised words (mm, deg).
+        state : _State
+            The modal state written so far.
+        start, stop : int
+            The blocks.
+        emit : (n, 5) bool
+            Which axis words to write.
+        options : PostOptions
+            The posting options (number format).
+
+        Returns
+        -------
+        list of (n, k) uint8
+            One byte column per axis word.
         """
         q = words.quantised[start:stop]
         return [word_bytes(letter, q[:, j], options.decimals, emit[:, j],

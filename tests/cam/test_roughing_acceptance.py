@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from cam.roughing.command import run_rough
+from cam.roughing.options import RoughOptions
 from postproc.apt import read_apt
 from postproc.toolpath import MoveKind
 
@@ -68,7 +69,8 @@ def design_stl_distance(spec: Path, centres: np.ndarray, tmp: Path, count: int =
 @pytest.fixture(scope="module")
 def rough(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
     out = tmp_path_factory.mktemp("rough") / "out"
-    doc = run_rough(SPEC, MACHINE, "ball10", out, progress=False, compare=True, **COARSE)
+    doc = run_rough(SPEC, MACHINE, "ball10", out, progress=False, compare=True,
+                    options=RoughOptions(**COARSE))
     return out, doc
 
 

@@ -42,8 +42,8 @@ def test_one_program_per_operation_removes_what_the_visits_remove(tmp_path: Path
 
     require_rs274()
     out = tmp_path / "rough"
-    doc = run_rough(SPEC, MACHINE, "ball10", out, progress=False, passages=1,
-                    step_along_mm=2.0, scallop_mm=1.0)
+    doc = run_rough(SPEC, MACHINE, "ball10", out, progress=False,
+                    options=RoughOptions(passages=1, step_along_mm=2.0, scallop_mm=1.0))
     assert [op["apt"] for op in doc["operations"]] == ["rough.apt"]
     visits = read_apt(out / "rough.apt")
     sections = doc["operations"][0]["sections"]

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from cam.roughing.command import run_rough
+from cam.roughing.options import RoughOptions
 from impeller_cam.errors import InputError
 from tests.cam.test_roughing_acceptance import (
     FEEDS,
@@ -36,7 +37,8 @@ COARSE: dict[str, Any] = {"step_along_mm": 3.0, "scallop_mm": 1.0, "max_depth_mm
 @pytest.fixture(scope="module")
 def rough(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
     out = tmp_path_factory.mktemp("rough_splitter") / "out"
-    doc = run_rough(SPEC, MACHINE, "ball6", out, progress=False, compare=True, **COARSE)
+    doc = run_rough(SPEC, MACHINE, "ball6", out, progress=False, compare=True,
+                    options=RoughOptions(**COARSE))
     return out, doc
 
 
