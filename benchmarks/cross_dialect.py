@@ -59,6 +59,38 @@ def _block_events(programs: list[Path], report: dict[str, Any], machine: Path
     return sorted(found)
 
 
+def compare(results: dict[str, Any]) -> None:
+    """Add each form's differences to LinuxCNC's and print them.
+
+    ``excess`` events are the listing of the largest leftovers (capped per program):
+    a removed volume that differs in the sixth digit can swap which samples make the
+    list, so they are compared by count, and the share of listed ones found at the
+    same block is printed; every other event must be at the same block.
+    """
+    reference = results.get("linuxcnc")
+    if reference is None:
+        return
+    ref_volumes = np.array(reference["volumes_mm3"])
+    ref_events = [tuple(e) for e in reference["block_events"]]
+    for key, result in results.items():
+        rel = np.abs(np.array(result["volumes_mm3"]) - ref_volumes) / ref_volumes
+        events = [tuple(e) for e in result["block_events"]]
+        strict = [e for e in events if e[1] != "excess"]
+        result["volume_rel_diff_max"] = float(rel.max())
+        result["same_events_at_same_blocks"] = strict == [e for e in ref_events
+                                                          if e[1] != "excess"]
+        excess = Counter(e for e in events if e[1] == "excess")
+        ref_excess = Counter(e for e in ref_events if e[1] == "excess")
+        result["excess_counts_equal"] = (Counter(e[0] for e in excess.elements())
+                                         == Counter(e[0] for e in ref_excess.elements()))
+        result["excess_same_block_share"] = (sum((excess & ref_excess).values())
+                                             / max(1, sum(ref_excess.values())))
+        print(f"{key:20s} max rel volume diff {rel.max():.2e}  other events at the same "
+              f"blocks: {result['same_events_at_same_blocks']}  excess counts equal: "
+              f"{result['excess_counts_equal']} ({result['excess_same_block_share']:.1%} "
+              f"at the same block)")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("chain", type=Path, help="chain output folder (impeller-cam run -o)")
@@ -67,7 +99,14 @@ def main() -> None:
     parser.add_argument("--resolution", type=float, default=0.5)
     parser.add_argument("--forms", default=",".join(FORMS))
     parser.add_argument("-o", "--out", type=Path, required=True)
+    parser.add_argument("--compare-only", action="store_true",
+                        help="re-read OUT/cross_dialect.json and compare again")
     args = parser.parse_args()
+    if args.compare_only:
+        saved = json.loads((args.out / "cross_dialect.json").read_text())
+        compare(saved["forms"])
+        (args.out / "cross_dialect.json").write_text(json.dumps(saved, indent=1))
+        return
 
     from cam.verify.command import VerifyOptions, run_verify
     from postproc.command import post_text
@@ -100,15 +139,7 @@ def main() -> None:
         }
         print(key, json.dumps({k: v for k, v in results[key].items()
                                if k != "block_events"}), flush=True)
-    reference = results.get("linuxcnc")
-    if reference is not None:
-        ref_volumes = np.array(reference["volumes_mm3"])
-        for key, result in results.items():
-            rel = np.abs(np.array(result["volumes_mm3"]) - ref_volumes) / ref_volumes
-            result["volume_rel_diff_max"] = float(rel.max())
-            result["same_block_events"] = result["block_events"] == reference["block_events"]
-            print(f"{key:20s} max rel volume diff {rel.max():.2e}  "
-                  f"same events at same blocks: {result['same_block_events']}")
+    compare(results)
     summary = {"chain": str(args.chain), "machine": str(args.machine),
                "resolution_mm": args.resolution,
                "programs": [name for name, _, _ in programs], "forms": results}
