@@ -226,6 +226,13 @@ def run_command(
     post: Annotated[
         str | None, typer.Option("--post", help="Post-processor (default: the machine's).")
     ] = None,
+    post_option: Annotated[
+        list[str] | None,
+        typer.Option("--post-option", help="Dialect option KEY=VALUE (repeatable; "
+                     "`impeller-cam posts` lists them), over the machine file's."),
+    ] = None,
+    tcp: Annotated[bool, typer.Option(help="Post under tool-centre-point control "
+                                      "(default: machine joints).")] = False,
     stage: Annotated[
         str | None, typer.Option("--stage", help="Rerun this stage alone from the outputs "
                                  "on disk (geometry, rough, finish, post, verify, motion, "
@@ -250,6 +257,12 @@ def run_command(
         settings["verify_resolution_mm"] = resolution
     if fillet_tool is not None:
         settings["fillet_tool"] = fillet_tool
+    if post_option:
+        from postproc.posts.choices import parse_option_words
+
+        settings["post_options"] = dict(parse_option_words(post_option))
+    if tcp:
+        settings["tcp"] = True
     options: dict[str, Any] = dict(rough_tool=rough_tool, finish_tool=finish_tool, tool=tool,
                                    post=post,
                                    only=stage, start=start, **settings)

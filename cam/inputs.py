@@ -97,8 +97,10 @@ def check_run_inputs(spec: Path, machine: Path, **options: Any) -> None:
     _check_spec(spec)
     load_machine(machine)
     keys = ("rough_tool", "finish_tool", "tool", "post", "rough", "finish",
-            "verify_resolution_mm", "tessellation_mm", "servo", "indexing_grid", "fillet_tool")
+            "verify_resolution_mm", "tessellation_mm", "servo", "indexing_grid", "fillet_tool",
+            "post_options", "tcp")
     settings = resolve_settings(spec, **{k: v for k, v in options.items() if k in keys})
+    _check_post(machine, settings)
     resolve_tool(settings.rough_tool)
     resolve_tool(settings.finish_tool)
     if settings.fillet_tool is not None:
@@ -110,6 +112,15 @@ def check_run_inputs(spec: Path, machine: Path, **options: Any) -> None:
                               float(load_spec(spec).fillet_radius))
         except InputError as error:
             raise with_file(error, spec, "machining") from None
+
+
+def _check_post(machine: Path, settings: Any) -> None:
+    """The chain's dialect, its options and TCP on this machine (``resolve_post``)."""
+    from postproc.command import resolve_post
+    from postproc.machine import load_machine
+
+    resolve_post(load_machine(machine), settings.post, tcp=settings.tcp,
+                 post_options=settings.post_options)
 
 
 def _check_spec(path: Path) -> str:

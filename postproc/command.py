@@ -10,9 +10,70 @@ from __future__ import annotations
 from collections.abc import Mapping
 from math import radians
 from pathlib import Path
+from typing import Any
 
 from impeller_cam.atomic import write_text_atomic
 from impeller_cam.errors import InputError
+
+
+def resolve_post(
+    machine: Any,
+    post: str | None,
+    *,
+    tcp: bool = False,
+    tolerance: float = 0.01,
+    angular_tolerance_deg: float = 0.5,
+    block_numbers: bool = False,
+    program_number: int | None = None,
+    post_options: Mapping[str, str] | None = None,
+) -> tuple[Any, Any]:
+    """The dialect and its checked ``PostOptions`` for a machine (nothing posted).
+
+    Parameters
+    ----------
+    machine : postproc.machine.Machine
+        The loaded machine file.
+    post : str or None
+        Dialect name (None: the machine's).
+    tcp, tolerance, angular_tolerance_deg, block_numbers, program_number, post_options
+        As ``run_post``'s (tolerance in mm, angular tolerance in degrees).
+
+    Returns
+    -------
+    tuple
+        ``(dialect, PostOptions)``.
+
+    Raises
+    ------
+    InputError
+        A non-positive tolerance, TCP on a dialect without it, an unknown dialect
+        option or one the control does not have (vectors without TRAORI, ...).
+    """
+    from postproc.posts import PostOptions, get_post
+    from postproc.posts.choices import options_for_machine
+
+    if not tolerance > 0:
+        raise InputError("chordal tolerance must be positive", field="--tolerance",
+                         value=tolerance, accepted="a length > 0 mm")
+    if not angular_tolerance_deg > 0:
+        raise InputError("angular tolerance must be positive", field="--angular-tolerance",
+                         value=angular_tolerance_deg, accepted="an angle > 0 deg")
+    dialect = get_post(post or machine.post)
+    if tcp and not dialect.supports_tcp:
+        raise InputError(f"post-processor {dialect.name!r} cannot write TCP programs",
+                         field="--tcp", value=True, accepted="a dialect with TCP support")
+    options = PostOptions(
+        tcp=tcp,
+        chordal_tolerance=tolerance,
+        angular_tolerance=radians(angular_tolerance_deg),
+        block_numbers=block_numbers,
+        program_number=program_number,
+        dialect_options=options_for_machine(dialect, machine, post_options),
+    )
+    check = getattr(dialect, "check_options", None)
+    if check is not None:
+        check(options, machine)
+    return dialect, options
 
 
 def post_text(
@@ -63,31 +124,12 @@ def post_text(
     from postproc.apt import read_apt
     from postproc.machine import load_machine
     from postproc.posting import post_toolpaths
-    from postproc.posts import PostOptions, get_post
-    from postproc.posts.choices import options_for_machine
 
-    if not tolerance > 0:
-        raise InputError("chordal tolerance must be positive", field="--tolerance",
-                         value=tolerance, accepted="a length > 0 mm")
-    if not angular_tolerance_deg > 0:
-        raise InputError("angular tolerance must be positive", field="--angular-tolerance",
-                         value=angular_tolerance_deg, accepted="an angle > 0 deg")
     the_machine = load_machine(machine)
-    dialect = get_post(post or the_machine.post)
-    if tcp and not dialect.supports_tcp:
-        raise InputError(f"post-processor {dialect.name!r} cannot write TCP programs",
-                         field="--tcp", value=True, accepted="a dialect with TCP support")
-    options = PostOptions(
-        tcp=tcp,
-        chordal_tolerance=tolerance,
-        angular_tolerance=radians(angular_tolerance_deg),
-        block_numbers=block_numbers,
-        program_number=program_number,
-        dialect_options=options_for_machine(dialect, the_machine, post_options),
-    )
-    check = getattr(dialect, "check_options", None)
-    if check is not None:
-        check(options, the_machine)
+    dialect, options = resolve_post(
+        the_machine, post, tcp=tcp, tolerance=tolerance,
+        angular_tolerance_deg=angular_tolerance_deg, block_numbers=block_numbers,
+        program_number=program_number, post_options=post_options)
     toolpaths = read_apt(apt)
     posted = post_toolpaths(toolpaths, the_machine, options, source=Path(apt).name)
     return dialect.write(posted, options)

@@ -24,7 +24,7 @@ __all__ = ["DEFAULT_RESOLUTION", "RunSettings", "resolve_settings"]
 DEFAULT_RESOLUTION = 0.1
 #: Keyword settings ``run_chain`` accepts besides the tools and the post.
 SETTING_KEYS = ("rough", "finish", "verify_resolution_mm", "tessellation_mm", "servo",
-                "indexing_grid", "fillet_tool")
+                "indexing_grid", "fillet_tool", "post_options", "tcp")
 
 
 @dataclass(frozen=True)
@@ -40,6 +40,11 @@ class RunSettings:
         library's largest ball no larger than the fillet, or plans no fillet pass).
     post : str or None
         Post-processor (``None``: the machine's default dialect).
+    post_options : dict of str to str
+        Dialect options (``--post-option KEY=VALUE``) over the machine file's
+        ``[control.options]``.
+    tcp : bool
+        Post under tool-centre-point control (``--tcp``; default joint positions).
     verify_resolution_mm : float
         Dexel spacing of both verifications, mm.
     tessellation_mm : float
@@ -63,6 +68,8 @@ class RunSettings:
     servo: bool = True
     indexing_grid: str = "coarse"
     fillet_tool: str | None = None
+    post_options: dict[str, str] = field(default_factory=dict)
+    tcp: bool = False
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready (run.json ``settings``).
@@ -111,7 +118,8 @@ def resolve_settings(
     **settings
         ``rough`` / ``finish`` (dicts merged over the spec's sub-tables, key by key),
         ``verify_resolution_mm``, ``tessellation_mm``, ``servo``, ``indexing_grid``,
-        ``fillet_tool`` (over the spec's).
+        ``fillet_tool`` (over the spec's), ``post_options`` (dialect options),
+        ``tcp`` (post under tool-centre-point control).
 
     Returns
     -------
@@ -160,4 +168,6 @@ def resolve_settings(
         tessellation_mm=float(tessellation), rough=rough, finish=finish,
         servo=bool(settings.get("servo", True)), indexing_grid=str(grid),
         fillet_tool=settings.get("fillet_tool") or table.fillet_tool,
+        post_options={str(k): str(v) for k, v in (settings.get("post_options") or {}).items()},
+        tcp=bool(settings.get("tcp", False)),
     )

@@ -169,12 +169,13 @@ def post_stage(ctx: Context) -> None:
     programs = []
     with staged_directory(ctx.out / "nc") as stage:
         for operation, apt, tool in apt_files(ctx):
-            text = post_text(ctx.out / apt, ctx.machine, post=dialect.name)
+            text = post_text(ctx.out / apt, ctx.machine, post=dialect.name,
+                             tcp=ctx.settings.tcp, post_options=ctx.settings.post_options)
             name = f"{Path(apt).stem}.{dialect.extension}"
             write_text_atomic(stage / name, text)
+            blocks = len(read_nc(stage / name, machine=machine))
             programs.append({"operation": operation, "name": Path(apt).stem, "apt": apt,
-                             "nc": f"nc/{name}", "blocks": len(read_nc(stage / name)),
-                             "tool": tool})
+                             "nc": f"nc/{name}", "blocks": blocks, "tool": tool})
         document = {"post": dialect.name, "machine": str(ctx.machine), "programs": programs}
         write_text_atomic(stage / "post.json", json.dumps(document, indent=2) + "\n")
 

@@ -107,7 +107,16 @@ class _Poser:
         tip[tcp_rows] = joints[tcp_rows, :3] - self.offset
         if start_at_first and len(program):
             tip[0], axis[0] = tip[1], axis[1]
-        self.joints_prog = joints
+        # the machine joints at each block end: a TCP row's X, Y, Z are a tip, not
+        # joints, so a joint-mode block that starts where a TCP block ended (M429,
+        # TRAFOOF, G49 after TCP) starts from the joints of that tip
+        true = joints.copy()
+        if tcp_rows.any():
+            true[tcp_rows, :3] = linear_joints_for(kins, tip[tcp_rows], joints[tcp_rows],
+                                                   tool_length)
+            if start_at_first and len(program):
+                true[0] = true[1]
+        self.joints_prog = true
         self.tip = tip
         self.axis = axis
 

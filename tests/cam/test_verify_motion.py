@@ -138,3 +138,31 @@ def test_overtravel_is_found_inside_a_tcp_block(machine) -> None:  # type: ignor
     found = [f for f in moves.overtravel if f["axis"] == "A"]
     assert found and found[0]["block"] == 1
     assert found[0]["limit"] == pytest.approx(50.0)
+
+
+def test_a_joint_block_after_tcp_starts_at_the_joints_of_the_last_tip(machine) -> None:  # type: ignore[no-untyped-def]
+    """M429 / TRAFOOF / G49 after TCP blocks: the next joint-mode block starts where the
+    machine is, the joints of the last TCP tip, not at the tip's numbers read as
+    joints (which swept a diagonal rapid through the part: issue 21's cross-dialect
+    check of the main job's programs)."""
+    m, kins = machine
+    joints_at_tip = np.array([[3.0, -7.0, 60.0, math.radians(-30.0), math.radians(20.0)]])
+    tip, _ = kins.forward(joints_at_tip)
+    # joint row, TCP row to that tip, joint row straight up in machine Z (same X, Y, A, C)
+    rows = np.array([[3.0, -7.0, 90.0, -30.0, 20.0], [*tip[0], -30.0, 20.0],
+                     [3.0, -7.0, 110.0, -30.0, 20.0]])
+    rows[:, 3:] = np.radians(rows[:, 3:])
+    n = len(rows)
+    program = MachineProgram(
+        joints=rows, motion=np.full(n, Motion.RAPID, np.int8),
+        feed_mode=np.full(n, 94, np.int16), feed=np.full(n, math.nan),
+        line=np.arange(1, n + 1), tcp=np.array([False, True, False]),
+        tool_number=np.ones(n, np.int32), start=np.zeros(5))
+    moves = program_moves(program, m, kins, 10.0, 0.01)
+    assert np.allclose(moves.joints[1], joints_at_tip[0], atol=1e-9)
+    last = moves.block == 2
+    up = moves.moves[last].sum(axis=0)
+    axis = moves.axes[last][0]
+    # the last block moves the tip along the tool axis only (machine Z), 50 mm
+    assert np.linalg.norm(np.cross(up, axis)) < 1e-9
+    assert np.linalg.norm(up) == pytest.approx(50.0)
