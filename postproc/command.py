@@ -10,10 +10,13 @@ from __future__ import annotations
 from collections.abc import Mapping
 from math import radians
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from impeller_cam.atomic import write_text_atomic
 from impeller_cam.errors import InputError
+
+if TYPE_CHECKING:
+    from postproc.posts import PostOptions, PostProcessor
 
 
 def resolve_post(
@@ -26,7 +29,7 @@ def resolve_post(
     block_numbers: bool = False,
     program_number: int | None = None,
     post_options: Mapping[str, str] | None = None,
-) -> tuple[Any, Any]:
+) -> tuple[PostProcessor, PostOptions]:
     """The dialect and its checked ``PostOptions`` for a machine (nothing posted).
 
     Parameters

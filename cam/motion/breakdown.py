@@ -143,7 +143,7 @@ def program_file_times(nc: str | Path, apt: str | Path | None, machine: Machine,
     from cam.motion.program_servo import program_joints
     from postproc.nc_reader import read_nc
 
-    program = read_nc(nc)
+    program = read_nc(nc, machine=machine)
     kinds = None if apt is None or not Path(apt).is_file() else \
         block_kinds(apt, machine, len(program))
     out = time_breakdown(program, machine, program_joints(program, machine), kinds,

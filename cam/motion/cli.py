@@ -226,7 +226,7 @@ def servo_command(
         from cam.motion.program_servo import simulate_program
         from postproc.nc_reader import read_nc
 
-        report = simulate_program(read_nc(program), mach)
+        report = simulate_program(read_nc(program, machine=mach), mach)
         data["program"] = report.as_dict()
         lines.append(f"program: max contour error "
                      f"{data['program']['max_contour_error_mm']:.4f} mm at line "
@@ -249,7 +249,7 @@ def time_command(
     from postproc.nc_reader import read_nc
 
     mach = load_machine(machine)
-    prog = read_nc(program)
+    prog = read_nc(program, machine=mach)
     joints = program_joints(prog, mach)
     times = program_cycle_time(prog, mach, joints)
     blended = blended_program_time(prog, mach, joints)

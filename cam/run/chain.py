@@ -89,6 +89,8 @@ def run_chain(
     tessellation_mm: float | None = None,
     servo: bool | None = None,
     indexing_grid: str | None = None,
+    post_options: Mapping[str, str] | None = None,
+    tcp: bool | None = None,
 ) -> dict[str, Any]:
     """Run the chain (or some stages of it) for one impeller spec.
 
@@ -124,6 +126,10 @@ def run_chain(
         Run the motion stage's servo-lag prediction (default True).
     indexing_grid : str, optional
         ``"coarse"`` (default) or ``"paper"`` (the motion stage's index optimisation).
+    post_options : mapping of str to str, optional
+        Dialect options (``--post-option KEY=VALUE``) over the machine file's.
+    tcp : bool, optional
+        Post under tool-centre-point control (default: machine joints).
 
     Returns
     -------
@@ -140,7 +146,8 @@ def run_chain(
     spec, machine, out = Path(spec), Path(machine), Path(out)
     given = {"rough": rough, "finish": finish, "fillet_tool": fillet_tool,
              "verify_resolution_mm": verify_resolution_mm, "tessellation_mm": tessellation_mm,
-             "servo": servo, "indexing_grid": indexing_grid}
+             "servo": servo, "indexing_grid": indexing_grid,
+             "post_options": dict(post_options) if post_options else None, "tcp": tcp}
     settings = {key: value for key, value in given.items() if value is not None}
     if not machine.is_file():
         raise InputError("machine file not found", file=machine, field="-m",

@@ -88,7 +88,7 @@ def _indexing(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
 
     before, after = [], []
     for entry in nc_programs(ctx, "rough"):
-        program = read_nc(ctx.out / entry["nc"])
+        program = read_nc(ctx.out / entry["nc"], machine=machine)
         b, a = index_moves(program.joints, program.start)
         before.append(b)
         after.append(a)
@@ -183,7 +183,7 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
     models = machine_axis_models(machine)
     programs, tips, errors, tuned_errors = [], [], [], []
     for entry in finish:
-        program = read_nc(ctx.out / entry["nc"])
+        program = read_nc(ctx.out / entry["nc"], machine=machine)
         report = simulate_program(program, machine, dt=SERVO_DT, models=models)
         feed = program.motion == int(Motion.LINEAR)
         if not feed.any():
