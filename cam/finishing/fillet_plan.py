@@ -21,6 +21,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from pathlib import Path
 
@@ -28,7 +29,7 @@ import numpy as np
 
 from cam.collision import CollisionScene
 from cam.finishing.edge_paths import edge_passes
-from cam.finishing.fillet_paths import fillet_passes
+from cam.finishing.fillet_paths import LEAN_DEG, fillet_passes
 from cam.finishing.options import FinishOptions, scallop_stepover
 from cam.finishing.paths import CutterPath, rotate_path, subset_path
 from cam.finishing.plan import FinishResult, PathResult, finish_path
@@ -37,13 +38,19 @@ from geometry.surfaces import ImpellerSurfaces
 from impeller_cam.errors import InputError
 from postproc.kinematics import Kinematics
 
-__all__ = ["check_fillet_tool", "choose_fillet_tool", "finish_trimmed", "plan_edges",
-           "plan_fillet"]
+__all__ = ["check_fillet_tool", "choose_fillet_tool", "finish_trimmed", "neck_lean",
+           "plan_edges", "plan_fillet"]
 
 #: A ball this much larger than the fillet still counts as "equal" (rounding), mm.
 RADIUS_SLACK = 1e-6
 #: A pass is shortened at its ends at most this many times.
 TRIM_ROUNDS = 3
+#: The neck's clearance from the blade is planned this much beyond the required one, mm.
+NECK_MARGIN = 0.5
+#: Largest initial lean of the fillet passes' axis from the blade, deg: where a blade
+#: leans over the hub, a larger lean brings the neck onto the hub (nine_blade's suction
+#: side near the trailing edge: 35 deg touched it at the main job's 2.5 mm clearance).
+MAX_LEAN_DEG = 30.0
 
 
 def choose_fillet_tool(fillet_radius: float, library: str | Path | None = None
@@ -87,6 +94,35 @@ def check_fillet_tool(tool: Tool, fillet_radius: float) -> None:
                          f"than the fillet (radius {fillet_radius:g} mm)",
                          field="fillet_tool", value=tool.name,
                          accepted=f"a ball of diameter <= {2.0 * fillet_radius:g} mm")
+
+
+def neck_lean(tool: Tool, clearance: float) -> float:
+    """Initial lean of the fillet passes' axis away from the blade, rad.
+
+    The neck starts ``h = flute_length - r`` above the ball centre, which lies about r
+    from the blade; leaning the axis by ``a`` from the blade's ruling moves that
+    point ``h sin(a)`` further off, so ``sin(a) = (clearance + NECK_MARGIN) / h``
+    keeps the neck ``clearance`` from the blade wherever the blade is locally flat
+    (a tapered neck widens more slowly than the lean moves it away for the library's
+    tools). At least ``fillet_paths.LEAN_DEG``, at most ``MAX_LEAN_DEG``. With a 5 deg
+    lean the nine_blade main job (ball4_taper, clearance 2.5 mm) left the neck 0.6-0.9
+    mm from the blade at both ends of every pass; C turns cannot move the neck off a
+    cut trailing edge's face, and the suction-side passes were shortened by up to 31
+    points there, leaving the fillet round that edge unfinished (up to 2.2 mm).
+
+    Parameters
+    ----------
+    tool : Tool
+        The fillet ball-end mill.
+    clearance : float
+        Required shank and holder clearance, mm (``FinishOptions.clearance_mm``).
+    """
+    reach = tool.flute_length - tool.radius
+    lowest = math.radians(LEAN_DEG)
+    if reach <= 0:
+        return math.radians(MAX_LEAN_DEG)
+    wanted = math.asin(min((clearance + NECK_MARGIN) / reach, 1.0))
+    return float(min(max(wanted, lowest), math.radians(MAX_LEAN_DEG)))
 
 
 def finish_trimmed(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionScene,
@@ -140,7 +176,8 @@ def plan_fillet(surfaces: ImpellerSurfaces, tool: Tool, main_radius: float, kins
     """
     check_fillet_tool(tool, float(surfaces.spec.fillet_radius))
     base = fillet_passes(surfaces, tool.radius, main_radius, options.scallop_mm,
-                         options.point_spacing_mm)
+                         options.point_spacing_mm,
+                         lean=neck_lean(tool, options.clearance_mm))
     return _finish_all(base, surfaces, tool, kins, scene, options, scene_source, progress)
 
 

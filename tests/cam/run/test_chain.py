@@ -95,16 +95,17 @@ def test_post_json_lists_rough_then_finish_programs(chain_small: Path) -> None:
     rough = load(chain_small, "rough/rough.json")
     assert post["post"] == "linuxcnc"  # the machine's dialect
     ops = [p["operation"] for p in post["programs"]]
-    # finish: junction, blade, edge (round the leading edge), hub; no fillet program
-    # (the bundled library has no ball of the small fixture's 1 mm fillet radius)
-    assert ops == ["rough"] * len(rough["operations"]) + ["finish"] * 4
-    assert [p["name"] for p in post["programs"][-4:]] == [
-        "finish_junction", "finish_blade", "finish_edge", "finish_hub"]
+    # finish: junction, blade, edge (round the leading edge), hub, then the fillet
+    # pencil with the library's largest ball that fits the 1 mm fillet (ball2_taper)
+    assert ops == ["rough"] * len(rough["operations"]) + ["finish"] * 5
+    assert [p["name"] for p in post["programs"][-5:]] == [
+        "finish_junction", "finish_blade", "finish_edge", "finish_hub", "finish_fillet"]
     for program in post["programs"]:
         assert program["nc"].endswith(".ngc") and (chain_small / program["nc"]).is_file()
         assert (chain_small / program["apt"]).is_file()
         assert program["blocks"] > 10
         assert program["tool"] == ("ball6" if program["operation"] == "rough"
+                                   else "ball2_taper" if program["name"] == "finish_fillet"
                                    else "ball4_taper")
 
 
