@@ -345,5 +345,10 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
             "operations": operations,
             "paths": entries,
         }
+        if fillet is None and the_spec.fillet_radius > 0:
+            document["fillet_note"] = (
+                f"the fillets (radius {the_spec.fillet_radius:g} mm) are not finished: no "
+                f"fillet tool (a ball of diameter <= {2.0 * the_spec.fillet_radius:g} mm; "
+                "--fillet-tool, or in the chain the tool library's largest such ball)")
         write_text_atomic(stage / "finish.json", json.dumps(document, indent=2) + "\n")
     return document

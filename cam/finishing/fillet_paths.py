@@ -32,30 +32,48 @@ its side (``geometry.outline.blade_loop``: round caps in thirds, cut edges corne
 face, corner), so that the two walls of a blade (in two neighbouring passages)
 cover its whole fillet loop between them. Only passage 0 is computed here; the
 others are rotations (``paths.rotate_path``).
+
+Each such pass is cut in three (``PARTS``): round the leading edge, along the side,
+round the trailing edge, overlapping by ``PART_OVERLAP`` points. Round an edge the
+blade normal, and with it the axis leaned away from the blade, turns by about 90 deg
+within a few millimetres, against the sense in which it turns along the side: on
+nine_blade's cut trailing edge the suction side's C ran down to -210.5 deg along the
+side and back up to -176.5 deg round the corner, and A dipped by 2 deg there. In one
+path the reversal removal had to bend the axis by up to 36 deg (A fell back to the
+monotone fit over the whole pass), which put the cutter into the blade; the passes
+were then shortened and left the fillet round that edge unfinished (up to 2.2 mm).
+Each part is its own path, without reverse movements on its own.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from cam.finishing.options import scallop_stepover
-from cam.finishing.paths import CutterPath, Wall, passage_walls
+from cam.finishing.paths import CutterPath, Wall, passage_walls, subset_path
 from geometry.fillet import rolling_ball
 from geometry.outline import OutlineSegment, blade_loop
 from geometry.revolved import RevolvedSurface
 from geometry.surfaces import BladeSurface, ImpellerSurfaces
 from impeller_cam.errors import InputError
 
-__all__ = ["FilletSection", "arc_step", "fillet_passes", "fillet_section", "wall_interval"]
+__all__ = ["PARTS", "FilletSection", "arc_step", "fillet_passes", "fillet_section", "pass_parts",
+           "wall_interval"]
 
 Array = NDArray[np.float64]
 #: Coarse samples per outline segment (resampled to the point spacing afterwards).
 _COARSE = 40
 #: Finite-difference step of the segment parameter and span parameter.
 _FD = 1e-6
+#: The parts of each pass: round the leading edge, along the side, round the trailing
+#: edge (module docstring).
+PARTS = ("le", "side", "te")
+#: Points each part of a pass shares with the next one.
+PART_OVERLAP = 2
 #: Bisection steps of the angular step.
 _STEP_BISECTIONS = 60
 #: Ball/fillet radius difference below which the paper's single spine pass is used, mm.
@@ -190,6 +208,30 @@ def fillet_section(surfaces: ImpellerSurfaces, wall: Wall, loop_parameter: Array
     return FilletSection(loop, surfaces.hub, wall.blade, spec.fillet_radius, loop_parameter)
 
 
+def pass_parts(section: FilletSection, side: int) -> list[tuple[str, NDArray[np.intp]]]:
+    """Point indices of the parts of a wall's passes (``PARTS``), in pass order.
+
+    The side is loop segment 0 (pressure, run forwards) or 4 (suction, run backwards);
+    points before it are round the leading edge, after it round the trailing edge.
+    Neighbouring parts share ``PART_OVERLAP`` points; a part with fewer than two points
+    of its own is left out (its points stay in the overlap of its neighbour).
+    """
+    lo = 0.0 if side > 0 else 4.0
+    loop = section.loop_parameter
+    on_side = (loop >= lo) & (loop <= lo + 1.0)
+    first, last = int(np.argmax(on_side)), len(loop) - 1 - int(np.argmax(on_side[::-1]))
+    if not on_side.any():
+        return [("side", np.arange(len(loop), dtype=np.intp))]
+    bounds = [(0, first), (first, last + 1), (last + 1, len(loop))]
+    out = []
+    for name, (a, b) in zip(PARTS, bounds, strict=True):
+        if b - a < 2:
+            continue
+        out.append((name, np.arange(max(a - PART_OVERLAP, 0), min(b + PART_OVERLAP, len(loop)),
+                                    dtype=np.intp)))
+    return out
+
+
 def lean_away(ruling: Array, normal: Array, angle: float) -> Array:
     """Unit ``ruling`` rows turned by ``angle`` rad towards ``normal`` (its part normal
     to the ruling), ``(n, 3)``."""
@@ -264,7 +306,8 @@ def _resampled(surfaces: ImpellerSurfaces, wall: Wall, fillet_radius: float, rad
 
 
 def fillet_passes(surfaces: ImpellerSurfaces, radius: float, main_radius: float,
-                  scallop: float, spacing: float, passage: int = 0) -> list[CutterPath]:
+                  scallop: float, spacing: float, passage: int = 0,
+                  lean: float | None = None) -> list[CutterPath]:
     """Pencil passes along the fillets of passage 0's walls (operation ``"fillet"``).
 
     Parameters
@@ -279,12 +322,17 @@ def fillet_passes(surfaces: ImpellerSurfaces, radius: float, main_radius: float,
         Allowed cusp height, mm.
     spacing : float
         Largest distance between consecutive ball centres, mm.
+    lean : float, optional
+        Initial lean of the axis from the blade's ruling away from the blade, rad
+        (default ``LEAN_DEG``; ``fillet_plan.neck_lean`` derives it from the tool's
+        neck and the shank clearance).
 
     Returns
     -------
     list of CutterPath
         Per wall, passes from the blade side across the fillet to the hub, each
-        leading- to trailing-edge tip. ``normal``: the contact normal; ``away``: the
+        leading- to trailing-edge tip in three parts (``pass_parts``: names end in
+        ``.le``, ``.side``, ``.te``). ``normal``: the contact normal; ``away``: the
         blade's outward normal; ``reference_axis``: the blade's ruling at the contact.
 
     Raises
@@ -309,13 +357,17 @@ def fillet_passes(surfaces: ImpellerSurfaces, radius: float, main_radius: float,
         curve_u = wall.curve_u(section.u)
         tip = opposite.tip_points(curve_u)
         stations = _stations(section, fillet_radius, radius, main_radius, scallop)
-        leaned = lean_away(section.ruling, section.blade_normal, math.radians(LEAN_DEG))
+        leaned = lean_away(section.ruling, section.blade_normal,
+                           math.radians(LEAN_DEG) if lean is None else lean)
+        parts = pass_parts(section, wall.side)
         for k, (kind, value) in enumerate(stations):
             centre, normal = _pass_points(surfaces, wall, section, fillet_radius, radius,
                                           kind, value)
-            out.append(CutterPath(
+            whole = CutterPath(
                 name=f"p{passage}.fillet.{wall.label}.{k:02d}", operation="fillet",
                 passage=passage, centre=centre, normal=normal,
                 reference_axis=leaned, away=section.blade_normal,
-                opposite_tip=tip, curve_u=curve_u, blade_v=section.v, wall=wall))
+                opposite_tip=tip, curve_u=curve_u, blade_v=section.v, wall=wall)
+            out += [replace(subset_path(whole, index), name=f"{whole.name}.{part}")
+                    for part, index in parts]
     return out

@@ -15,20 +15,25 @@
   repair (round a cut trailing edge, where the pass turns from the side onto the
   edge face) is shortened at that end, to start after / end before them (at most
   ``TRIM_ROUNDS`` times, never below half its points), like the open-ended hub
-  passes: ``trimmed_points`` in finish.json; what it leaves shows in the
-  verification.
+  passes; postures still breaking one inside it are left out and the pass is cut
+  into the runs between them (``finish_pieces``): ``trimmed_points`` in
+  finish.json; what it leaves shows in the verification.
+* ``neck_lean``: how far the fillet passes' axis leans off the blade so that the
+  neck keeps the shank clearance.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from cam.collision import CollisionScene
 from cam.finishing.edge_paths import edge_passes
-from cam.finishing.fillet_paths import fillet_passes
+from cam.finishing.fillet_paths import LEAN_DEG, fillet_passes
 from cam.finishing.options import FinishOptions, scallop_stepover
 from cam.finishing.paths import CutterPath, rotate_path, subset_path
 from cam.finishing.plan import FinishResult, PathResult, finish_path
@@ -37,13 +42,22 @@ from geometry.surfaces import ImpellerSurfaces
 from impeller_cam.errors import InputError
 from postproc.kinematics import Kinematics
 
-__all__ = ["check_fillet_tool", "choose_fillet_tool", "finish_trimmed", "plan_edges",
-           "plan_fillet"]
+__all__ = ["check_fillet_tool", "choose_fillet_tool", "finish_pieces", "finish_trimmed",
+           "neck_lean",
+           "plan_edges", "plan_fillet"]
 
 #: A ball this much larger than the fillet still counts as "equal" (rounding), mm.
 RADIUS_SLACK = 1e-6
 #: A pass is shortened at its ends at most this many times.
 TRIM_ROUNDS = 3
+#: Fewest points of a piece of a pass cut at postures breaking a rule.
+MIN_PIECE = 2
+#: The neck's clearance from the blade is planned this much beyond the required one, mm.
+NECK_MARGIN = 0.5
+#: Largest initial lean of the fillet passes' axis from the blade, deg: where a blade
+#: leans over the hub, a larger lean brings the neck onto the hub (nine_blade's suction
+#: side near the trailing edge: 35 deg touched it at the main job's 2.5 mm clearance).
+MAX_LEAN_DEG = 30.0
 
 
 def choose_fillet_tool(fillet_radius: float, library: str | Path | None = None
@@ -89,6 +103,35 @@ def check_fillet_tool(tool: Tool, fillet_radius: float) -> None:
                          accepted=f"a ball of diameter <= {2.0 * fillet_radius:g} mm")
 
 
+def neck_lean(tool: Tool, clearance: float) -> float:
+    """Initial lean of the fillet passes' axis away from the blade, rad.
+
+    The neck starts ``h = flute_length - r`` above the ball centre, which lies about r
+    from the blade; leaning the axis by ``a`` from the blade's ruling moves that
+    point ``h sin(a)`` further off, so ``sin(a) = (clearance + NECK_MARGIN) / h``
+    keeps the neck ``clearance`` from the blade wherever the blade is locally flat
+    (a tapered neck widens more slowly than the lean moves it away for the library's
+    tools). At least ``fillet_paths.LEAN_DEG``, at most ``MAX_LEAN_DEG``. With a 5 deg
+    lean the nine_blade main job (ball4_taper, clearance 2.5 mm) left the neck 0.6-0.9
+    mm from the blade at both ends of every pass; C turns cannot move the neck off a
+    cut trailing edge's face, and the suction-side passes were shortened by up to 31
+    points there, leaving the fillet round that edge unfinished (up to 2.2 mm).
+
+    Parameters
+    ----------
+    tool : Tool
+        The fillet ball-end mill.
+    clearance : float
+        Required shank and holder clearance, mm (``FinishOptions.clearance_mm``).
+    """
+    reach = tool.flute_length - tool.radius
+    lowest = math.radians(LEAN_DEG)
+    if reach <= 0:
+        return math.radians(MAX_LEAN_DEG)
+    wanted = math.asin(min((clearance + NECK_MARGIN) / reach, 1.0))
+    return float(min(max(wanted, lowest), math.radians(MAX_LEAN_DEG)))
+
+
 def finish_trimmed(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionScene,
                    options: FinishOptions, surfaces: ImpellerSurfaces) -> PathResult:
     """``finish_path``, then shortened at either end where postures break a rule.
@@ -117,6 +160,35 @@ def finish_trimmed(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collis
     return result
 
 
+def finish_pieces(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionScene,
+                  options: FinishOptions, surfaces: ImpellerSurfaces) -> list[PathResult]:
+    """``finish_trimmed``; postures still breaking a rule inside the pass are left out.
+
+    The pass is cut at them into the runs between (each of at least ``MIN_PIECE``
+    points, named ``<name>.<k>``), each finished again; the points left out count as
+    ``trimmed`` (on the first piece). On nine_blade the fillet pass touching the blade
+    contact round the suction side's cut trailing-edge corner ran 0.34 mm into the
+    built solid's fillet there at 4 of its 11 postures (the ball lies inside the
+    rolling ball of the closed-form fillet, which the solid's interpolated fillet face
+    leaves by that much at the corner): no tilt frees a ball that cuts the part.
+    """
+    result = finish_trimmed(path, tool, kins, scene, options, surfaces)
+    bad = np.union1d(result.interference.interfering_points, result.rule_points)
+    if not bad.size:
+        return [result]
+    good = np.ones(len(result.path), dtype=bool)
+    good[bad] = False
+    edges = np.flatnonzero(np.diff(np.r_[False, good, False].astype(np.int8)))
+    runs = [np.arange(a, b, dtype=np.intp) for a, b in zip(edges[::2], edges[1::2], strict=True)
+            if b - a >= MIN_PIECE]
+    if not runs:
+        return [result]
+    pieces = [finish_path(replace(subset_path(result.path, run), name=f"{path.name}.{k + 1}"),
+                          tool, kins, scene, options, surfaces) for k, run in enumerate(runs)]
+    pieces[0].trimmed = len(path) - sum(len(piece.path) for piece in pieces)
+    return pieces
+
+
 def plan_fillet(surfaces: ImpellerSurfaces, tool: Tool, main_radius: float, kins: Kinematics,
                 scene: CollisionScene, options: FinishOptions, *, scene_source: str,
                 progress: Callable[[int, int, str], None] | None = None) -> FinishResult:
@@ -140,7 +212,8 @@ def plan_fillet(surfaces: ImpellerSurfaces, tool: Tool, main_radius: float, kins
     """
     check_fillet_tool(tool, float(surfaces.spec.fillet_radius))
     base = fillet_passes(surfaces, tool.radius, main_radius, options.scallop_mm,
-                         options.point_spacing_mm)
+                         options.point_spacing_mm,
+                         lean=neck_lean(tool, options.clearance_mm))
     return _finish_all(base, surfaces, tool, kins, scene, options, scene_source, progress)
 
 
@@ -174,7 +247,7 @@ def _finish_all(base: list[CutterPath], surfaces: ImpellerSurfaces, tool: Tool,
         ordered += [p if k == 0 else rotate_path(p, k, surfaces.spec.pitch) for p in base]
     results: list[PathResult] = []
     for i, path in enumerate(ordered):
-        results.append(finish_trimmed(path, tool, kins, scene, options, surfaces))
+        results += finish_pieces(path, tool, kins, scene, options, surfaces)
         if progress is not None:
             progress(i + 1, len(ordered), path.name)
     return FinishResult(results, tool, options, scene_source)

@@ -120,7 +120,7 @@ def finish_options(ctx: Context) -> dict[str, Any]:
 def fillet_tool(ctx: Context) -> str | None:
     """The fillet pencil's tool: the settings' (spec's ``[machining] fillet_tool``), else
     the library's largest ball no larger than the fillet; ``None``: no fillet pass
-    (no fillet, or no such ball: finish.json says which, ``fillet_note``)."""
+    (no fillet, or no such ball: finish.json's ``fillet_note`` says so)."""
     from cam.finishing.fillet_plan import choose_fillet_tool
     from geometry.spec import load_spec
 

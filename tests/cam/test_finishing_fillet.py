@@ -127,8 +127,9 @@ def test_pencil_balls_stay_inside_the_rolling_ball(name: str, ball: float,
         gap = [float(tree.query(p.centre)[0].max()) for p in mine]
         arc = [p for p, g in zip(mine, gap, strict=True) if g <= fillet - ball + 0.03]
         assert arc, wall.label
-        if ball == fillet:  # the paper's case: one pass on the spine
-            assert len(arc) == 1 and gap[mine.index(arc[0])] < 0.03
+        if ball == fillet:  # the paper's case: one pass (in its three parts) on the spine
+            assert len({p.name.rsplit(".", 1)[0] for p in arc}) == 1
+            assert max(gap[mine.index(p)] for p in arc) < 0.03
         hub = [p for p in mine if np.allclose(surfaces.hub.signed_distance(p.centre), ball,
                                               atol=1e-6)]
         assert hub, "passes beyond the fillet on the hub"
@@ -171,7 +172,9 @@ def test_the_fillet_tool_is_the_largest_ball_that_fits() -> None:
     chosen = choose_fillet_tool(2.5)
     assert chosen is not None and chosen.name == "ball4_taper"
     assert choose_fillet_tool(3.0) is not None and choose_fillet_tool(3.0).radius == 3.0
-    assert choose_fillet_tool(1.0) is None  # no ball of 2 mm in the bundled library
+    small = choose_fillet_tool(1.0)  # the small fixtures' 1 mm fillets
+    assert small is not None and small.name == "ball2_taper" and small.radius == 1.0
+    assert choose_fillet_tool(0.8) is None  # no ball of 1.6 mm or less
     assert choose_fillet_tool(0.0) is None
     with pytest.raises(InputError, match="larger than the fillet"):
         check_fillet_tool(resolve_tool("ball6_taper"), 2.5)
@@ -280,3 +283,43 @@ def test_fillet_finishing_is_clean_and_covers_the_fillet(name: str, ball: str, l
         left = np.minimum(material_left(samples, edge_passes, main.radius),
                           material_left(samples, passes + back, tool.radius))
         assert left.max() <= scallop + 0.01, (which, float(left.max()))
+
+
+def test_each_pass_is_cut_round_the_edges_with_overlaps() -> None:
+    """Every pass of a wall comes in parts round the leading edge, along the side and
+    round the trailing edge; consecutive parts share ``PART_OVERLAP`` ball centres and
+    together they are the whole pass (the side part runs over the side alone)."""
+    from cam.finishing.fillet_paths import PART_OVERLAP, PARTS
+
+    surfaces = build_surfaces(load_spec(IMPELLERS / "small" / "spec.toml"))
+    paths = fillet_passes(surfaces, 0.8, 2.0, 0.1, 0.5)
+    whole: dict[str, list] = {}
+    for p in paths:
+        stem, part = p.name.rsplit(".", 1)
+        assert part in PARTS
+        whole.setdefault(stem, []).append(p)
+    assert len(whole) * 3 == len(paths)
+    for stem, parts in whole.items():
+        assert [p.name.rsplit(".", 1)[1] for p in parts] == list(PARTS), stem
+        for a, b in zip(parts[:-1], parts[1:], strict=True):
+            np.testing.assert_allclose(a.centre[-2 * PART_OVERLAP:], b.centre[:2 * PART_OVERLAP])
+        total = sum(len(p) for p in parts) - 2 * 2 * PART_OVERLAP
+        centres = np.concatenate([parts[0].centre] + [p.centre[2 * PART_OVERLAP:]
+                                                      for p in parts[1:]])
+        assert len(centres) == total
+        # one continuous pass: no step longer than the spacing
+        assert np.linalg.norm(np.diff(centres, axis=0), axis=1).max() <= 0.5 + 1e-9
+
+
+def test_the_neck_lean_clears_the_blade_by_the_clearance() -> None:
+    """``sin(lean) (flute_length - r) = clearance + NECK_MARGIN``, between LEAN_DEG and
+    MAX_LEAN_DEG."""
+    from cam.finishing.fillet_paths import LEAN_DEG
+    from cam.finishing.fillet_plan import MAX_LEAN_DEG, NECK_MARGIN, neck_lean
+
+    tool = resolve_tool("ball4_taper")
+    lean = neck_lean(tool, 2.5)
+    assert math.sin(lean) * (tool.flute_length - tool.radius) == pytest.approx(
+        2.5 + NECK_MARGIN)
+    assert neck_lean(tool, 0.0) == pytest.approx(math.radians(LEAN_DEG))
+    assert neck_lean(tool, 20.0) == pytest.approx(math.radians(MAX_LEAN_DEG))

@@ -221,6 +221,8 @@ def test_finish_small_every_passage_surfaces_scene(workdir: Path) -> None:
     assert (out / "plots").is_dir() and any((out / "plots").iterdir())
     # reversals existed before smoothing somewhere: the method had work to do
     assert sum(document["summary"]["reversals_before"].values()) > 0
+    # no fillet tool on a design with 1 mm fillets: finish.json says they stay unfinished
+    assert "radius 1 mm" in document["fillet_note"] and "<= 2 mm" in document["fillet_note"]
 
 
 def buildable(name: str) -> Any:

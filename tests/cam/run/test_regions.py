@@ -104,3 +104,32 @@ def test_the_verdict_covers_every_milled_face_and_lists_lathe_faces_apart() -> N
     result = summary(short)
     assert result["stock_short_samples"] == 1 and result["stock_short_max_mm"] == 0.2
     assert not result["accepted"] and result["failed"] == []
+
+
+def test_skin_beyond_the_blades_largest_radius_is_lathe_work() -> None:
+    """A cut trailing edge on a backswept blade is a milled face, but the blank's outer
+    diameter over the blades (turned to their largest radius plus the allowance) is
+    lathe skin: samples whose closest face is the edge face but which lie radially beyond
+    the blades' largest radius (here 30 mm) are ``trailing_edge_beyond_shroud``."""
+    from cam.run.regions import blade_radius, region_summary
+    from cam.verify.deviation import Deviation
+
+    design = _flat_design()
+    # the edge face: a triangle from r = 29 to r = 30 mm, between hub and shroud
+    design.triangles = np.array([[point(1.0, 29.0), point(9.0, 29.5),  # type: ignore[attr-defined]
+                                  point(5.0, 30.0)]])
+    design.roles = np.array(["trailing_edge"])  # type: ignore[attr-defined]
+    design.face_roles = np.array(["trailing_edge"])  # type: ignore[attr-defined]
+    assert blade_radius(design) == pytest.approx(30.0)  # type: ignore[arg-type]
+    points = np.array([point(5.0, 29.6), point(5.0, 31.5), point(8.0, 32.0)])
+    moves = np.array([3, -1, 4])
+    signed = np.array([0.3, 1.9, 2.0])
+    found = region_summary(design, Deviation(points, signed, moves,  # type: ignore[arg-type]
+                                             np.zeros(3, dtype=np.int64)),
+                           0.2, 0.05, 2.0, lathe_allowance=2.0)
+    assert found["acceptance"]["trailing_edge"]["samples"] == 1
+    assert found["failed"] == ["trailing_edge"]  # 0.3 mm on the face itself > 0.25
+    assert found["lathe"]["trailing_edge_beyond_shroud"]["samples"] == 2
+    assert found["lathe"]["trailing_edge_beyond_shroud"]["within_limit"]
+    # without blade triangles nothing is beyond: the radius is infinite
+    assert blade_radius(_flat_design()) == np.inf  # type: ignore[arg-type]
