@@ -9,9 +9,9 @@ swept primitive and still hold material there:
 * ``box_side``: the swept primitive's bounding box along one grid coordinate (the
   primitive lies in the cylinder of radius ``rmax`` between its slab's heights);
 * ``grid_rows``: the grid rows within ``rho`` of the capsule's span across them;
-* ``piece_misses``: a run of rays of one row whose material the capsule cannot meet
-  (the capsule's range along the rays over that run against the tiles' and rays'
-  material ranges).
+* ``capsule_range``: the capsule's range along the rays over a rectangle of the grid
+  plane; ``tile_columns`` (the tiles of one tile row) and ``piece_misses`` (a run of
+  rays of one row) compare it with the tiles' and the rays' material ranges.
 """
 
 from __future__ import annotations
@@ -70,23 +70,31 @@ def _clip(s0, s1, p, u, lo, hi):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, inline="always")
+def capsule_range(xa, xb, ya, yb, p0x, p0y, p0z, ux, uy, uz,  # type: ignore[no-untyped-def]
+                  length, rho, kmin, kmax):
+    """Range ``(klo, khi)`` along the rays of the capsule's points over the rectangle
+    ``xa <= x <= xb``, ``ya <= y <= yb`` of the grid plane (``klo > khi``: none).
+
+    Such points lie within ``rho`` of the part of the capsule's segment whose
+    projection is within ``rho`` of the rectangle (a clipped parameter range), so
+    their range is that part's range +- ``rho``, within ``kmin..kmax``."""
+    s0, s1 = _clip(0.0, length, p0x, ux, xa - rho, xb + rho)
+    s0, s1 = _clip(s0, s1, p0y, uy, ya - rho, yb + rho)
+    if s1 < s0:
+        return math.inf, -math.inf
+    za = p0z + s0 * uz
+    zb = p0z + s1 * uz
+    return max(kmin, min(za, zb) - rho), min(kmax, max(za, zb) + rho)
+
+
+@njit(cache=True, inline="always")
 def piece_misses(ci, ja, jb, row0, t_lo, t_hi, mat_lo, mat_hi,  # type: ignore[no-untyped-def]
                  origin1, h, p0x, p0y, p0z, ux, uy, uz, length, rho, kmin, kmax):
     """True when the capsule cannot meet the material of rays ``ja..jb`` of the row at
-    ``ci``: the capsule points over those rays lie within ``rho`` of the part of its
-    segment whose projection is within ``rho`` of them (a clipped parameter range),
-    so their range along the rays is that part's range +- ``rho``; it is compared
-    with the tile's material range, then with the rays' own."""
-    ya = origin1 + (ja + 0.5) * h
-    yb = origin1 + (jb + 0.5) * h
-    s0, s1 = _clip(0.0, length, p0x, ux, ci - rho, ci + rho)
-    s0, s1 = _clip(s0, s1, p0y, uy, ya - rho, yb + rho)
-    if s1 < s0:
-        return True
-    za = p0z + s0 * uz
-    zb = p0z + s1 * uz
-    klo = max(kmin, min(za, zb) - rho)
-    khi = min(kmax, max(za, zb) + rho)
+    ``ci``: its range along those rays (``capsule_range``) against the tile's
+    material range ``t_lo..t_hi``, then against the rays' own."""
+    klo, khi = capsule_range(ci, ci, origin1 + (ja + 0.5) * h, origin1 + (jb + 0.5) * h,
+                             p0x, p0y, p0z, ux, uy, uz, length, rho, kmin, kmax)
     if t_lo >= khi or t_hi <= klo:
         return True
     m_lo = math.inf
@@ -95,6 +103,30 @@ def piece_misses(ci, ja, jb, row0, t_lo, t_hi, mat_lo, mat_hi,  # type: ignore[n
         m_lo = min(m_lo, mat_lo[r])
         m_hi = max(m_hi, mat_hi[r])
     return m_lo >= khi or m_hi <= klo
+
+
+@njit(cache=True, inline="always")
+def tile_columns(ti, i0, i1, jb0, jb1, tile, t_lo, t_hi,  # type: ignore[no-untyped-def]
+                 origin0, origin1, h, p0x, p0y, p0z, ux, uy, uz, length, rho, kmin, kmax):
+    """Columns ``(j0, j1)`` of the tiles of tile row ``ti`` (columns ``jb0..jb1``)
+    whose material range the capsule's range over rows ``i0..i1`` of that tile row
+    can meet (``j0 > j1``: none)."""
+    xa = origin0 + (i0 + 0.5) * h
+    xb = origin0 + (i1 + 0.5) * h
+    first = -1
+    last = -1
+    for tj in range(jb0 // tile, jb1 // tile + 1):
+        ja = max(jb0, tj * tile)
+        jb = min(jb1, tj * tile + tile - 1)
+        klo, khi = capsule_range(xa, xb, origin1 + (ja + 0.5) * h, origin1 + (jb + 0.5) * h,
+                                 p0x, p0y, p0z, ux, uy, uz, length, rho, kmin, kmax)
+        if t_lo[ti, tj] < khi and t_hi[ti, tj] > klo:
+            if first < 0:
+                first = tj
+            last = tj
+    if first < 0:
+        return 1, 0
+    return max(jb0, first * tile), min(jb1, last * tile + tile - 1)
 
 
 @njit(cache=True, inline="always")

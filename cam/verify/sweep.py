@@ -42,7 +42,7 @@ import math
 import numpy as np
 from numba import njit
 
-from cam.verify.footprint import box_side, capsule, grid_rows, piece_misses
+from cam.verify.footprint import box_side, capsule, grid_rows, piece_misses, tile_columns
 from cam.verify.interval import (
     capsule_row,
     endpoint_interval,
@@ -56,7 +56,7 @@ from cam.verify.kernels import MIN_PIECE, _subtract, swept_interval_scalar
 
 _PAR = 1e-12
 _GUARD = 1e-9  # mm added to every bound
-_BAND = 8  # grid rows swept through all the moves of a batch at a time
+_BAND = 8  # grid rows swept through all the moves of a batch at a time (divides TILE)
 
 
 @njit(cache=True, inline="always")
@@ -185,6 +185,14 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                 jb0 = max(0, int(math.ceil((bylo - origin[1]) / h - 0.5)))
                 jb1 = min(nj - 1, int(math.floor((byhi - origin[1]) / h - 0.5)))
                 i0 += (-i0) % step  # probed rows: multiples of the stride
+                if i0 > i1:
+                    continue
+                # the band lies in one tile row: its tiles the capsule can meet
+                jb0, jb1 = tile_columns(b_lo // tile, i0, i1, jb0, jb1, tile, tile_lo,
+                                        tile_hi, origin[0], origin[1], h, p0x, p0y, p0z,
+                                        ux, uy, uz, length, rho, kmin, kmax)
+                if jb0 > jb1:
+                    continue
                 qa = uu + alpha * zu * zu
                 qb = -ud - alpha * zu * zd
                 qc = dd + alpha * zd * zd
