@@ -56,7 +56,7 @@ from cam.verify.kernels import MIN_PIECE, _subtract, swept_interval_scalar
 
 _PAR = 1e-12
 _GUARD = 1e-9  # mm added to every bound
-_BAND = 8  # grid rows swept through all the moves of a batch at a time (divides TILE)
+_BAND = 16  # grid rows swept through all the moves of a batch at a time (divides TILE)
 
 
 @njit(cache=True, inline="always")
