@@ -9,9 +9,12 @@ hold material there, in three filters of rising cost:
    its centre; any other primitive lies within ``rmax`` of the parallelogram its axis
    sweeps, hence in a capsule around the axis at the mid move (``rmax + |d|/2``) or
    around the move at the mid axis (``hypot(rmax, (zhi - zlo)/2)``), the thinner of
-   the two. Per grid row, ``interval.stadium_row`` gives the span of rays inside the
-   capsule's projection; blocks of ``tile`` x ``tile`` rays whose material range
-   misses the sweep's range along the rays are skipped;
+   the two (``footprint.capsule``), clipped by the swept primitive's bounding box
+   (``footprint.box_side``). Per band of rows (one tile row), only the tiles whose
+   material range meets the capsule's range over that tile (``footprint.tile_columns``);
+   per grid row, ``interval.stadium_row`` gives the span of rays inside the capsule's
+   projection, and runs of a tile's width whose material the capsule's range over
+   them cannot meet (``footprint.piece_misses``) are skipped;
 2. **material**: the capsule's interval on the ray (exact for a sphere) against the
    ray's material range and its first gap (both kept per ray, up to date): no
    overlap, no more work (the early-out for rays whose material is already gone
@@ -24,7 +27,9 @@ hold material there, in three filters of rising cost:
    ``kernels.swept_interval`` (the general path and accuracy reference), after the
    swept slab bound and the ray's own intervals have been checked.
 
-Rows are taken in bands of ``_BAND``: each band goes through all the moves of the
+The per-ray material and gap ranges and the tiles' ranges are kept with the grid
+(``dexel.SweepIndex``) from one call to the next. Rows are taken in bands of
+``_BAND``: each band goes through all the moves of the
 batch before the next, so its rays stay in cache from one move to the next; every
 ray still sees the moves, and within a move the primitives, in order, so the result
 is that of the move-by-move sweep.
