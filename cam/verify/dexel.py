@@ -8,11 +8,91 @@ intervals than it has room for, and give back volume and surface samples.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
+
+from cam.verify.kernels import tile_bounds
+
+#: Rays per side of the blocks the sweep skips at once (``kernels.tile_bounds``).
+TILE = 16
+
+
+@njit(cache=True, nogil=True)
+def material_range(lo, hi, start, count):  # type: ignore[no-untyped-def]
+    """Per ray: lowest start and highest end of its material (inf, -inf when none),
+    and its first gap, the end of its first interval and the start of its second
+    (inf, -inf when it has fewer than two)."""
+    n_rays = count.shape[0]
+    mat_lo = np.full(n_rays, np.inf)
+    mat_hi = np.full(n_rays, -np.inf)
+    gap_lo = np.full(n_rays, np.inf)
+    gap_hi = np.full(n_rays, -np.inf)
+    for r in range(n_rays):
+        n = count[r]
+        if n > 0:
+            mat_lo[r] = lo[start[r]]
+            mat_hi[r] = hi[start[r] + n - 1]
+        if n > 1:
+            gap_lo[r] = hi[start[r]]
+            gap_hi[r] = lo[start[r] + 1]
+    return mat_lo, mat_hi, gap_lo, gap_hi
+
+
+@njit(cache=True, nogil=True)
+def refresh_tiles(lo, hi, start, count, shape, tile, t_lo, t_hi, dirty):  # type: ignore[no-untyped-def]
+    """Recompute the material range of the tiles flagged in ``dirty`` (and clear the
+    flags); the others are left as they are."""
+    nj = shape[1]
+    for ti in range(dirty.shape[0]):
+        for tj in range(dirty.shape[1]):
+            if not dirty[ti, tj]:
+                continue
+            dirty[ti, tj] = False
+            a = math.inf
+            b = -math.inf
+            for i in range(ti * tile, min(shape[0], (ti + 1) * tile)):
+                for j in range(tj * tile, min(nj, (tj + 1) * tile)):
+                    r = i * nj + j
+                    n = count[r]
+                    if n > 0:
+                        a = min(a, lo[start[r]])
+                        b = max(b, hi[start[r] + n - 1])
+            t_lo[ti, tj] = a
+            t_hi[ti, tj] = b
+
+
+@dataclass
+class SweepIndex:
+    """What the sweep keeps of a grid between calls, up to date after every change.
+
+    Attributes
+    ----------
+    mat_lo, mat_hi, gap_lo, gap_hi : (R,) float64
+        Per ray: ``material_range``.
+    tile_lo, tile_hi : (TI, TJ) float64
+        Per ``TILE`` x ``TILE`` block of rays: lowest start and highest end of its
+        material, mm. A block the sweep changed is flagged in ``dirty`` and refreshed
+        before the next call (material only goes, so a stale range still bounds it).
+    dirty : (TI, TJ) bool
+    acc : (R,) float64
+        Zeros (the per-ray cut of the move in progress while a sweep runs).
+    touched : (R + 1,) int64
+        Zeros (the rays in ``acc`` while a sweep runs, ``touched[0]`` their count).
+    """
+
+    mat_lo: NDArray[np.float64]
+    mat_hi: NDArray[np.float64]
+    gap_lo: NDArray[np.float64]
+    gap_hi: NDArray[np.float64]
+    tile_lo: NDArray[np.float64]
+    tile_hi: NDArray[np.float64]
+    dirty: NDArray[np.bool_]
+    acc: NDArray[np.float64]
+    touched: NDArray[np.int64]
 
 
 @njit(cache=True)
@@ -79,6 +159,8 @@ class DexelGrid:
     used: NDArray[np.int64]
     #: Sweep diagnostics accumulated by ``sweep.sweep_grid`` (see there).
     counters: NDArray[np.int64] = field(default_factory=lambda: np.zeros(6, np.int64))
+    #: Summaries the sweep keeps (``sweep_index``); None until built.
+    index: SweepIndex | None = field(default=None, repr=False, compare=False)
 
     @classmethod
     def from_intervals(
@@ -115,7 +197,7 @@ class DexelGrid:
         slot = start[ray] + (np.arange(len(ray)) - first[ray])
         pool_lo[slot] = lo
         pool_hi[slot] = hi
-        return cls(
+        grid = cls(
             k=int(k),
             origin=np.asarray(origin, dtype=np.float64).reshape(2),
             shape=shape_a,
@@ -129,6 +211,32 @@ class DexelGrid:
             cap=cap,
             used=np.array([used], np.int64),
         )
+        grid.sweep_index()  # part of the grid: built with it, kept by every sweep
+        return grid
+
+    def sweep_index(self) -> SweepIndex:
+        """The summaries the sweep works with (built once, then kept up to date by
+        ``sweep.sweep_grid``; a kernel that changes the pool otherwise must call
+        ``invalidate``)."""
+        if self.index is None:
+            n_rays = len(self.count)
+            t_lo, t_hi = tile_bounds(self.lo, self.hi, self.start, self.count, self.shape,
+                                     TILE)
+            m_lo, m_hi, g_lo, g_hi = material_range(self.lo, self.hi, self.start, self.count)
+            self.index = SweepIndex(
+                mat_lo=m_lo, mat_hi=m_hi, gap_lo=g_lo, gap_hi=g_hi, tile_lo=t_lo,
+                tile_hi=t_hi, dirty=np.zeros(t_lo.shape, np.bool_),
+                acc=np.zeros(n_rays), touched=np.zeros(n_rays + 1, np.int64),
+            )
+        else:
+            index = self.index
+            refresh_tiles(self.lo, self.hi, self.start, self.count, self.shape, TILE,
+                          index.tile_lo, index.tile_hi, index.dirty)
+        return self.index
+
+    def invalidate(self) -> None:
+        """Forget the sweep's summaries (after changing the pool outside a sweep)."""
+        self.index = None
 
     @property
     def axes(self) -> tuple[int, int]:

@@ -21,16 +21,13 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from cam.verify.dexel import DexelGrid
-from cam.verify.kernels import tile_bounds
+from cam.verify.dexel import TILE, DexelGrid
 from cam.verify.raycast import cast_mesh
-from cam.verify.sweep import material_range, sweep_grid
+from cam.verify.sweep import sweep_grid
 from cam.verify.toolshape import ToolShape
 from impeller_cam.atomic import write_bytes_atomic
 from impeller_cam.errors import InputError
 
-#: Rays per side of the blocks the sweep skips at once (``kernels.tile_bounds``).
-TILE = 16
 #: Version of the saved ``.npz`` stock state.
 STATE_VERSION = 1
 
@@ -76,18 +73,15 @@ def _sweep_grid(
 ) -> NDArray[np.float64]:
     """All moves through one grid (compiled, releases the GIL); stats (m, 4)."""
     stats = np.zeros((len(tips), 4))
-    n_rays = len(grid.count)
-    acc = np.zeros(n_rays)
-    touched = np.zeros(n_rays + 1, np.int64)
     first = 0
-    t_lo, t_hi = tile_bounds(grid.lo, grid.hi, grid.start, grid.count, grid.shape, TILE)
-    mat_lo, mat_hi, gap_lo, gap_hi = material_range(grid.lo, grid.hi, grid.start, grid.count)
+    index = grid.sweep_index()
     while True:
         failed = sweep_grid(
             grid.lo, grid.hi, grid.lo_move, grid.hi_move, grid.start, grid.count,
             grid.cap, grid.used, grid.k, grid.origin, grid.shape, grid.pitch,
-            t_lo, t_hi, TILE, tips, moves, axes, ids, prims, cuts, strides, first, stats,
-            acc, touched, grid.counters, mat_lo, mat_hi, gap_lo, gap_hi,
+            index.tile_lo, index.tile_hi, index.dirty, TILE, tips, moves, axes, ids, prims,
+            cuts, strides, first, stats, index.acc, index.touched, grid.counters,
+            index.mat_lo, index.mat_hi, index.gap_lo, index.gap_hi,
         )
         if failed < 0:
             return stats

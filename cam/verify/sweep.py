@@ -9,9 +9,12 @@ hold material there, in three filters of rising cost:
    its centre; any other primitive lies within ``rmax`` of the parallelogram its axis
    sweeps, hence in a capsule around the axis at the mid move (``rmax + |d|/2``) or
    around the move at the mid axis (``hypot(rmax, (zhi - zlo)/2)``), the thinner of
-   the two. Per grid row, ``interval.stadium_row`` gives the span of rays inside the
-   capsule's projection; blocks of ``tile`` x ``tile`` rays whose material range
-   misses the sweep's range along the rays are skipped;
+   the two (``footprint.capsule``), clipped by the swept primitive's bounding box
+   (``footprint.box_side``). Per band of rows (one tile row), only the tiles whose
+   material range meets the capsule's range over that tile (``footprint.tile_columns``);
+   per grid row, ``interval.stadium_row`` gives the span of rays inside the capsule's
+   projection, and runs of a tile's width whose material the capsule's range over
+   them cannot meet (``footprint.piece_misses``) are skipped;
 2. **material**: the capsule's interval on the ray (exact for a sphere) against the
    ray's material range and its first gap (both kept per ray, up to date): no
    overlap, no more work (the early-out for rays whose material is already gone
@@ -24,7 +27,9 @@ hold material there, in three filters of rising cost:
    ``kernels.swept_interval`` (the general path and accuracy reference), after the
    swept slab bound and the ray's own intervals have been checked.
 
-Rows are taken in bands of ``_BAND``: each band goes through all the moves of the
+The per-ray material and gap ranges and the tiles' ranges are kept with the grid
+(``dexel.SweepIndex``) from one call to the next. Rows are taken in bands of
+``_BAND``: each band goes through all the moves of the
 batch before the next, so its rays stay in cache from one move to the next; every
 ray still sees the moves, and within a move the primitives, in order, so the result
 is that of the move-by-move sweep.
@@ -42,6 +47,7 @@ import math
 import numpy as np
 from numba import njit
 
+from cam.verify.footprint import box_side, capsule, grid_rows, piece_misses, tile_columns
 from cam.verify.interval import (
     capsule_row,
     endpoint_interval,
@@ -55,30 +61,7 @@ from cam.verify.kernels import MIN_PIECE, _subtract, swept_interval_scalar
 
 _PAR = 1e-12
 _GUARD = 1e-9  # mm added to every bound
-_BAND = 8  # grid rows swept through all the moves of a batch at a time
-
-
-@njit(cache=True, inline="always")
-def _capsule(tx, ty, tz, dx, dy, dz, ax, ay, az,  # type: ignore[no-untyped-def]
-             alpha, beta, gamma, zlo, zhi, rmax):
-    """Bounding capsule of a swept primitive (module doc), as scalars: start point,
-    unit direction, length, radius, and whether it is exact (a full sphere)."""
-    dl = math.sqrt(dx * dx + dy * dy + dz * dz)
-    if alpha == 1.0:
-        zc = -0.5 * beta
-        rad = math.sqrt(max(zc * zc - gamma, 0.0))
-        if zlo <= zc - rad + 1e-12 and zhi >= zc + rad - 1e-12:
-            inv = 1.0 / dl if dl > 0.0 else 0.0
-            return (tx + zc * ax, ty + zc * ay, tz + zc * az, dx * inv, dy * inv, dz * inv,
-                    dl, rad, True)
-    rho_a = rmax + 0.5 * dl  # around the axis segment at the mid move
-    rho_b = math.hypot(rmax, 0.5 * (zhi - zlo))  # around the move at the mid axis
-    if rho_a <= rho_b:
-        return (tx + zlo * ax + 0.5 * dx, ty + zlo * ay + 0.5 * dy, tz + zlo * az + 0.5 * dz,
-                ax, ay, az, zhi - zlo, rho_a + _GUARD, False)
-    zm = 0.5 * (zlo + zhi)
-    return (tx + zm * ax, ty + zm * ay, tz + zm * az, dx / dl, dy / dl, dz / dl, dl,
-            rho_b + _GUARD, False)
+_BAND = 16  # grid rows swept through all the moves of a batch at a time (divides TILE)
 
 
 @njit(cache=True, inline="always")
@@ -89,27 +72,6 @@ def _add_counts(counters, c0, c1, c2, c3, c4, c5):  # type: ignore[no-untyped-de
     counters[3] += c3
     counters[4] += c4
     counters[5] += c5
-
-
-@njit(cache=True, nogil=True)
-def material_range(lo, hi, start, count):  # type: ignore[no-untyped-def]
-    """Per ray: lowest start and highest end of its material (inf, -inf when none),
-    and its first gap, the end of its first interval and the start of its second
-    (inf, -inf when it has fewer than two)."""
-    n_rays = count.shape[0]
-    mat_lo = np.full(n_rays, np.inf)
-    mat_hi = np.full(n_rays, -np.inf)
-    gap_lo = np.full(n_rays, np.inf)
-    gap_hi = np.full(n_rays, -np.inf)
-    for r in range(n_rays):
-        n = count[r]
-        if n > 0:
-            mat_lo[r] = lo[start[r]]
-            mat_hi[r] = hi[start[r] + n - 1]
-        if n > 1:
-            gap_lo[r] = hi[start[r]]
-            gap_hi[r] = lo[start[r] + 1]
-    return mat_lo, mat_hi, gap_lo, gap_hi
 
 
 @njit(cache=True, inline="always")
@@ -126,21 +88,11 @@ def _move_frame(tips, moves, axes, mv, ia, ja, k, tipg, dg, ag):  # type: ignore
     ag[2] = axes[mv, k]
 
 
-@njit(cache=True, inline="always")
-def _rows(p0x, p1x, rho, origin0, h, ni):  # type: ignore[no-untyped-def]
-    """First and last grid row (``i``) within ``rho`` of the capsule's axis span."""
-    xlo = min(p0x, p1x) - rho
-    xhi = max(p0x, p1x) + rho
-    i0 = max(0, int(math.ceil((xlo - origin0) / h - 0.5)))
-    i1 = min(ni - 1, int(math.floor((xhi - origin0) / h - 0.5)))
-    return i0, i1
-
-
 @njit(cache=True, nogil=True, error_model="numpy")
 def sweep_grid(  # type: ignore[no-untyped-def]
     lo, hi, lom, him, start, count, cap, used,
     k, origin, shape, h,
-    tile_lo, tile_hi, tile,
+    tile_lo, tile_hi, tile_dirty, tile,
     tips, moves, axes, move_ids, prims, cuts, strides, first, stats, acc, touched, counters,
     mat_lo, mat_hi, gap_lo, gap_hi,
 ):
@@ -156,7 +108,9 @@ def sweep_grid(  # type: ignore[no-untyped-def]
 
     ``mat_lo``, ``mat_hi``, ``gap_lo``, ``gap_hi`` (R,) float64: ``material_range`` of
     the grid, kept up to date by the call (contiguous per row, so the material test
-    vectorises).
+    vectorises). ``tile_lo``, ``tile_hi``: the tiles' material range, a bound (stale
+    is conservative); ``tile_dirty`` flags the tiles whose rays the call changed
+    (``dexel.SweepIndex``).
 
     ``acc`` (R,) float64 zeros and ``touched`` (R + 1,) int64 (``touched[0]``: count)
     hold the per-ray cut of the move in progress, so a move resumed after a pool
@@ -188,10 +142,10 @@ def sweep_grid(  # type: ignore[no-untyped-def]
     for mv in range(n_moves):
         _move_frame(tips, moves, axes, mv, ia, ja, k, tipg, dg, ag)
         for p in range(prims.shape[0]):
-            p0x, p0y, p0z, ux, uy, uz, length, rho, exact = _capsule(
+            p0x, p0y, p0z, ux, uy, uz, length, rho, exact = capsule(
                 tipg[0], tipg[1], tipg[2], dg[0], dg[1], dg[2], ag[0], ag[1], ag[2],
                 prims[p, 0], prims[p, 1], prims[p, 2], prims[p, 3], prims[p, 4], prims[p, 5])
-            i0, i1 = _rows(p0x, p0x + length * ux, rho, origin[0], h, ni)
+            i0, i1 = grid_rows(p0x, p0x + length * ux, rho, origin[0], h, ni)
             reach_lo[mv] = min(reach_lo[mv], i0)
             reach_hi[mv] = max(reach_hi[mv], i1)
     # bands of rows, each through all the moves in order: a band's rays stay in cache
@@ -217,18 +171,33 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                 zlo, zhi, rmax = prims[p, 3], prims[p, 4], prims[p, 5]
                 cutting = cuts[p]
                 step = strides[p]
-                p0x, p0y, p0z, ux, uy, uz, length, rho, exact = _capsule(
+                p0x, p0y, p0z, ux, uy, uz, length, rho, exact = capsule(
                     tipg[0], tipg[1], tipg[2], dg[0], dg[1], dg[2], ag[0], ag[1], ag[2],
                     alpha, beta, gamma, zlo, zhi, rmax)
                 rho2 = rho * rho
                 p1x = p0x + length * ux
                 p1y = p0y + length * uy
-                kmin = min(p0z, p0z + length * uz) - rho
-                kmax = max(p0z, p0z + length * uz) + rho
-                i0, i1 = _rows(p0x, p1x, rho, origin[0], h, ni)
-                i0 = max(i0, b_lo)
-                i1 = min(i1, b_hi)
+                # the swept primitive's bounding box clips the capsule (a primitive
+                # not much longer than wide, or a tall one cut short by the stock)
+                bxlo, bxhi = box_side(tipg[0], dg[0], ag[0], zlo, zhi, rmax)
+                bylo, byhi = box_side(tipg[1], dg[1], ag[1], zlo, zhi, rmax)
+                bzlo, bzhi = box_side(tipg[2], dg[2], ag[2], zlo, zhi, rmax)
+                kmin = max(min(p0z, p0z + length * uz) - rho, bzlo)
+                kmax = min(max(p0z, p0z + length * uz) + rho, bzhi)
+                i0, i1 = grid_rows(p0x, p1x, rho, origin[0], h, ni)
+                i0 = max(i0, b_lo, int(math.ceil((bxlo - origin[0]) / h - 0.5)))
+                i1 = min(i1, b_hi, int(math.floor((bxhi - origin[0]) / h - 0.5)))
+                jb0 = max(0, int(math.ceil((bylo - origin[1]) / h - 0.5)))
+                jb1 = min(nj - 1, int(math.floor((byhi - origin[1]) / h - 0.5)))
                 i0 += (-i0) % step  # probed rows: multiples of the stride
+                if i0 > i1:
+                    continue
+                # the band lies in one tile row: its tiles the capsule can meet
+                jb0, jb1 = tile_columns(b_lo // tile, i0, i1, jb0, jb1, tile, tile_lo,
+                                        tile_hi, origin[0], origin[1], h, p0x, p0y, p0z,
+                                        ux, uy, uz, length, rho, kmin, kmax)
+                if jb0 > jb1:
+                    continue
                 qa = uu + alpha * zu * zu
                 qb = -ud - alpha * zu * zd
                 qc = dd + alpha * zd * zd
@@ -241,192 +210,217 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                     ylo, yhi = stadium_row(ci, p0x, p0y, p1x, p1y, rho)
                     if not ylo <= yhi:
                         continue
-                    j0 = max(0, int(math.ceil((ylo - origin[1]) / h - 0.5)))
-                    j1 = min(nj - 1, int(math.floor((yhi - origin[1]) / h - 0.5)))
+                    j0 = max(jb0, int(math.ceil((ylo - origin[1]) / h - 0.5)))
+                    j1 = min(jb1, int(math.floor((yhi - origin[1]) / h - 0.5)))
                     j0 += (-j0) % step
                     ti = ii // tile
-                    # trim the span to the tiles whose material can meet the sweep
-                    while j0 <= j1 and (tile_lo[ti, j0 // tile] >= kmax
-                                        or tile_hi[ti, j0 // tile] <= kmin):
-                        j0 = (j0 // tile + 1) * tile
-                        j0 += (-j0) % step
-                    while j1 >= j0 and (tile_lo[ti, j1 // tile] >= kmax
-                                        or tile_hi[ti, j1 // tile] <= kmin):
-                        j1 = (j1 // tile) * tile - 1
-                    if j1 < j0:
-                        continue
-                    mx = ci - p0x
-                    w0 = ci - tipg[0]
-                    nspan = (j1 - j0) // step + 1
-                    cj0 = origin[1] + (j0 + 0.5) * h
-                    capsule_row(row_a, row_b, nspan, mx, cj0 - p0y, step * h, -p0z,
-                                ux, uy, uz, length, rho2)
-                    n_c0 += nspan
-                    r0 = ii * nj + j0
-                    # the rays whose capsule interval meets their material range,
-                    # before the exact intervals of a row are computed
-                    m_first = 0
-                    m_last = nspan - 1
-                    if rowwise:
-                        m_first = nspan
-                        m_last = -1
-                        for m in range(nspan):
-                            r = r0 + m * step
-                            if (row_b[m] > row_a[m] and row_a[m] < mat_hi[r]
-                                    and row_b[m] > mat_lo[r]):
-                                m_first = min(m_first, m)
-                                m_last = m
-                        if m_last < 0:
-                            continue
-                    if rowwise and normal:
-                        normal_row(row_c, row_d, row_ok, m_first, m_last + 1, cj0, step, h,
-                                   w0, tipg[1], -tipg[2], ag[0], ag[1], ag[2], dg[0], dg[1],
-                                   dg[2], zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi)
-                    elif rowwise:
-                        endpoint_row(row_c, row_d, row_ok, m_first, m_last + 1, cj0, step,
-                                     h, w0, tipg[1], -tipg[2], ag[0], ag[1], ag[2], dg[0],
-                                     dg[1], dg[2], zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi)
-                    for m in range(m_first, m_last + 1):
-                        known = rowwise and row_ok[m]
-                        ta = row_c[m] if known else row_a[m]
-                        tb = row_d[m] if known else row_b[m]
-                        r = r0 + m * step
-                        mlo = mat_lo[r]
-                        mhi = mat_hi[r]
-                        # no material there, or all of it in the ray's first gap
-                        if not (tb > ta and ta < mhi and tb > mlo
-                                and (ta < gap_lo[r] or tb > gap_hi[r])):
-                            continue
-                        n_c1 += 1
-                        if known:
-                            n_c2 += 1
-                            n_c3 += 1
-                        elif not exact:
-                            cj = cj0 + m * step * h
-                            w1 = cj - tipg[1]
-                            w2 = -tipg[2]
-                            zw = ag[0] * w0 + ag[1] * w1 + ag[2] * w2
-                            # the swept slab along the ray
-                            if abs(zu) > 1e-14:
-                                za = (zlo - zw + min(0.0, zd)) / zu
-                                zb = (zhi - zw + max(0.0, zd)) / zu
-                                sa = max(ta, min(za, zb) - _GUARD)
-                                sb = min(tb, max(za, zb) + _GUARD)
-                                if not (sb > sa and sa < mhi and sb > mlo):
-                                    continue
-                            elif zw - max(0.0, zd) > zhi or zw - min(0.0, zd) < zlo:
+                    # the span in pieces of consecutive tiles where the capsule's
+                    # range along the rays can meet their material
+                    j_end = j1
+                    jn = j0
+                    while jn <= j_end:
+                        j0 = jn
+                        while j0 <= j_end:
+                            je = min(j_end, (j0 // tile + 1) * tile - 1)
+                            if not piece_misses(ci, j0, je, ii * nj, tile_lo[ti, j0 // tile],
+                                                 tile_hi[ti, j0 // tile], mat_lo, mat_hi,
+                                                 origin[1], h, p0x, p0y, p0z, ux, uy, uz,
+                                                 length, rho, kmin, kmax):
+                                break
+                            j0 = je + 1
+                            j0 += (-j0) % step
+                        if j0 > j_end:
+                            break
+                        j1 = min(j_end, (j0 // tile + 1) * tile - 1)
+                        while j1 < j_end:
+                            je = min(j_end, ((j1 + 1) // tile + 1) * tile - 1)
+                            if piece_misses(ci, j1 + 1, je, ii * nj,
+                                             tile_lo[ti, (j1 + 1) // tile],
+                                             tile_hi[ti, (j1 + 1) // tile], mat_lo, mat_hi,
+                                             origin[1], h, p0x, p0y, p0z, ux, uy, uz,
+                                             length, rho, kmin, kmax):
+                                break
+                            j1 = je
+                        jn = j1 + 1
+                        jn += (-jn) % step
+                        mx = ci - p0x
+                        w0 = ci - tipg[0]
+                        nspan = (j1 - j0) // step + 1
+                        cj0 = origin[1] + (j0 + 0.5) * h
+                        capsule_row(row_a, row_b, nspan, mx, cj0 - p0y, step * h, -p0z,
+                                    ux, uy, uz, length, rho2)
+                        n_c0 += nspan
+                        r0 = ii * nj + j0
+                        # the rays whose capsule interval meets their material range,
+                        # before the exact intervals of a row are computed
+                        m_first = 0
+                        m_last = nspan - 1
+                        if rowwise:
+                            m_first = nspan
+                            m_last = -1
+                            for m in range(nspan):
+                                r = r0 + m * step
+                                if (min(row_b[m], kmax) > max(row_a[m], kmin)
+                                        and row_a[m] < mat_hi[r] and row_b[m] > mat_lo[r]
+                                        and kmin < mat_hi[r] and kmax > mat_lo[r]):
+                                    m_first = min(m_first, m)
+                                    m_last = m
+                            if m_last < 0:
                                 continue
-                            else:
-                                sa = ta
-                                sb = tb
-                            # the ray's intervals against that bound (rays with material
-                            # on both sides of a cut channel pass the range test)
+                        if rowwise and normal:
+                            normal_row(row_c, row_d, row_ok, m_first, m_last + 1, cj0, step, h,
+                                       w0, tipg[1], -tipg[2], ag[0], ag[1], ag[2], dg[0], dg[1],
+                                       dg[2], zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi)
+                        elif rowwise:
+                            endpoint_row(row_c, row_d, row_ok, m_first, m_last + 1, cj0, step,
+                                         h, w0, tipg[1], -tipg[2], ag[0], ag[1], ag[2], dg[0],
+                                         dg[1], dg[2], zu, zd, alpha, beta, gamma, qa, qb, qc,
+                                         zlo, zhi)
+                        for m in range(m_first, m_last + 1):
+                            known = rowwise and row_ok[m]
+                            ta = row_c[m] if known else row_a[m]
+                            tb = row_d[m] if known else row_b[m]
+                            if not (known or exact):  # a bound: the box clips it
+                                ta = max(ta, kmin)
+                                tb = min(tb, kmax)
+                            r = r0 + m * step
+                            mlo = mat_lo[r]
+                            mhi = mat_hi[r]
+                            # no material there, or all of it in the ray's first gap
+                            if not (tb > ta and ta < mhi and tb > mlo
+                                    and (ta < gap_lo[r] or tb > gap_hi[r])):
+                                continue
+                            n_c1 += 1
+                            if known:
+                                n_c2 += 1
+                                n_c3 += 1
+                            elif not exact:
+                                cj = cj0 + m * step * h
+                                w1 = cj - tipg[1]
+                                w2 = -tipg[2]
+                                zw = ag[0] * w0 + ag[1] * w1 + ag[2] * w2
+                                # the swept slab along the ray
+                                if abs(zu) > 1e-14:
+                                    za = (zlo - zw + min(0.0, zd)) / zu
+                                    zb = (zhi - zw + max(0.0, zd)) / zu
+                                    sa = max(ta, min(za, zb) - _GUARD)
+                                    sb = min(tb, max(za, zb) + _GUARD)
+                                    if not (sb > sa and sa < mhi and sb > mlo):
+                                        continue
+                                elif zw - max(0.0, zd) > zhi or zw - min(0.0, zd) < zlo:
+                                    continue
+                                else:
+                                    sa = ta
+                                    sb = tb
+                                # the ray's intervals against that bound (rays with material
+                                # on both sides of a cut channel pass the range test)
+                                base = start[r]
+                                n = count[r]
+                                i = 0
+                                while i < n and hi[base + i] <= sa:
+                                    i += 1
+                                if i == n or lo[base + i] >= sb:
+                                    continue
+                                n_c2 += 1
+                                wu = w2 - zw * zu
+                                wd = w0 * dg[0] + w1 * dg[1] + w2 * dg[2] - zw * zd
+                                ww = w0 * w0 + w1 * w1 + w2 * w2 - zw * zw
+                                qd = wu + alpha * zw * zu + 0.5 * beta * zu
+                                qe = -wd - alpha * zw * zd - 0.5 * beta * zd
+                                qf = ww + alpha * zw * zw + beta * zw + gamma
+                                done = False
+                                if parallel:
+                                    ta, tb = parallel_cylinder_interval(qc, qe, qf, zw, zu, zd,
+                                                                        zlo, zhi)
+                                    done = True
+                                elif normal and not rowwise:
+                                    done, ta, tb = normal_interval(qa, qb, qc, qd, qe, qf, zw, zd,
+                                                                   zlo, zhi, alpha)
+                                if not done and qa > 1e-9 and not rowwise:
+                                    done, ta, tb = endpoint_interval(qa, qb, qc, qd, qe, qf, zw,
+                                                                     zu, zd, zlo, zhi)
+                                if done:
+                                    n_c3 += 1
+                                else:
+                                    n_c4 += 1
+                                    ta, tb = swept_interval_scalar(qa, qb, qc, qd, qe, qf, zw, zu,
+                                                                   zd, zlo, zhi)
+                                if not (tb > ta and ta < mhi and tb > mlo):
+                                    continue
                             base = start[r]
                             n = count[r]
+                            if not cutting:
+                                got = 0.0
+                                for q in range(n):
+                                    x0 = max(lo[base + q], ta)
+                                    x1 = min(hi[base + q], tb)
+                                    if x1 > x0:
+                                        got += x1 - x0
+                                n_c5 += 1 if got > 0.0 else 0
+                                overlap += got
+                                overlap_max = max(overlap_max, got)
+                                continue
+                            # the common subtractions written out here: a helper taking the
+                            # pool arrays costs two atomic reference-count updates per array
+                            # and call, more than the subtraction itself
+                            mid = move_ids[mv]
                             i = 0
-                            while i < n and hi[base + i] <= sa:
+                            while i < n and hi[base + i] <= ta:
                                 i += 1
-                            if i == n or lo[base + i] >= sb:
+                            if i == n or lo[base + i] >= tb:
                                 continue
-                            n_c2 += 1
-                            wu = w2 - zw * zu
-                            wd = w0 * dg[0] + w1 * dg[1] + w2 * dg[2] - zw * zd
-                            ww = w0 * w0 + w1 * w1 + w2 * w2 - zw * zw
-                            qd = wu + alpha * zw * zu + 0.5 * beta * zu
-                            qe = -wd - alpha * zw * zd - 0.5 * beta * zd
-                            qf = ww + alpha * zw * zw + beta * zw + gamma
-                            done = False
-                            if parallel:
-                                ta, tb = parallel_cylinder_interval(qc, qe, qf, zw, zu, zd,
-                                                                    zlo, zhi)
-                                done = True
-                            elif normal and not rowwise:
-                                done, ta, tb = normal_interval(qa, qb, qc, qd, qe, qf, zw, zd,
-                                                               zlo, zhi, alpha)
-                            if not done and qa > 1e-9 and not rowwise:
-                                done, ta, tb = endpoint_interval(qa, qb, qc, qd, qe, qf, zw,
-                                                                 zu, zd, zlo, zhi)
-                            if done:
-                                n_c3 += 1
-                            else:
-                                n_c4 += 1
-                                ta, tb = swept_interval_scalar(qa, qb, qc, qd, qe, qf, zw, zu,
-                                                               zd, zlo, zhi)
-                            if not (tb > ta and ta < mhi and tb > mlo):
-                                continue
-                        base = start[r]
-                        n = count[r]
-                        if not cutting:
+                            j = i
                             got = 0.0
-                            for q in range(n):
-                                x0 = max(lo[base + q], ta)
-                                x1 = min(hi[base + q], tb)
-                                if x1 > x0:
-                                    got += x1 - x0
-                            n_c5 += 1 if got > 0.0 else 0
-                            overlap += got
-                            overlap_max = max(overlap_max, got)
-                            continue
-                        # the common subtractions written out here: a helper taking the
-                        # pool arrays costs two atomic reference-count updates per array
-                        # and call, more than the subtraction itself
-                        mid = move_ids[mv]
-                        i = 0
-                        while i < n and hi[base + i] <= ta:
-                            i += 1
-                        if i == n or lo[base + i] >= tb:
-                            continue
-                        j = i
-                        got = 0.0
-                        while j < n and lo[base + j] < tb:
-                            got += min(hi[base + j], tb) - max(lo[base + j], ta)
-                            j += 1
-                        left_lo = lo[base + i]
-                        left_lom = lom[base + i]
-                        right_hi = hi[base + j - 1]
-                        right_him = him[base + j - 1]
-                        keep_left = left_lo < ta - MIN_PIECE
-                        keep_right = right_hi > tb + MIN_PIECE
-                        delta = int(keep_left) + int(keep_right) - (j - i)
-                        if delta == 0 or (j == n and (delta < 0 or n < cap[r])):
-                            # nothing to shift: rewrite the met intervals in place
-                            w = base + i
-                            if keep_left:
-                                lo[w] = left_lo
-                                lom[w] = left_lom
-                                hi[w] = ta
-                                him[w] = mid
-                                w += 1
-                            if keep_right:
-                                lo[w] = tb
-                                lom[w] = mid
-                                hi[w] = right_hi
-                                him[w] = right_him
-                            count[r] = n + delta
-                        else:
-                            got = -1.0
-                        if got < 0.0:
-                            got = _subtract(lo, hi, lom, him, start, count, cap, used, r,
-                                            ta, tb, mid)
+                            while j < n and lo[base + j] < tb:
+                                got += min(hi[base + j], tb) - max(lo[base + j], ta)
+                                j += 1
+                            left_lo = lo[base + i]
+                            left_lom = lom[base + i]
+                            right_hi = hi[base + j - 1]
+                            right_him = him[base + j - 1]
+                            keep_left = left_lo < ta - MIN_PIECE
+                            keep_right = right_hi > tb + MIN_PIECE
+                            delta = int(keep_left) + int(keep_right) - (j - i)
+                            if delta == 0 or (j == n and (delta < 0 or n < cap[r])):
+                                # nothing to shift: rewrite the met intervals in place
+                                w = base + i
+                                if keep_left:
+                                    lo[w] = left_lo
+                                    lom[w] = left_lom
+                                    hi[w] = ta
+                                    him[w] = mid
+                                    w += 1
+                                if keep_right:
+                                    lo[w] = tb
+                                    lom[w] = mid
+                                    hi[w] = right_hi
+                                    him[w] = right_him
+                                count[r] = n + delta
+                            else:
+                                got = -1.0
                             if got < 0.0:
-                                _add_counts(counters, n_c0, n_c1, n_c2, n_c3, n_c4, n_c5)
-                                stats[mv, 0] += removed
-                                stats[mv, 2] += overlap
-                                stats[mv, 3] = max(stats[mv, 3], overlap_max)
-                                return band * n_moves + mv
-                            base = start[r]
-                        n = count[r]
-                        mat_lo[r] = lo[base] if n > 0 else np.inf
-                        mat_hi[r] = hi[base + n - 1] if n > 0 else -np.inf
-                        gap_lo[r] = hi[base] if n > 1 else np.inf
-                        gap_hi[r] = lo[base + 1] if n > 1 else -np.inf
-                        if got > 0.0:
-                            n_c5 += 1
-                            removed += got
-                            if acc[r] == 0.0:
-                                touched[0] += 1
-                                touched[touched[0]] = r
-                            acc[r] += got
+                                got = _subtract(lo, hi, lom, him, start, count, cap, used, r,
+                                                ta, tb, mid)
+                                if got < 0.0:
+                                    _add_counts(counters, n_c0, n_c1, n_c2, n_c3, n_c4, n_c5)
+                                    stats[mv, 0] += removed
+                                    stats[mv, 2] += overlap
+                                    stats[mv, 3] = max(stats[mv, 3], overlap_max)
+                                    return band * n_moves + mv
+                                base = start[r]
+                            n = count[r]
+                            tile_dirty[ti, (j0 + m * step) // tile] = True
+                            mat_lo[r] = lo[base] if n > 0 else np.inf
+                            mat_hi[r] = hi[base + n - 1] if n > 0 else -np.inf
+                            gap_lo[r] = hi[base] if n > 1 else np.inf
+                            gap_hi[r] = lo[base + 1] if n > 1 else -np.inf
+                            if got > 0.0:
+                                n_c5 += 1
+                                removed += got
+                                if acc[r] == 0.0:
+                                    touched[0] += 1
+                                    touched[touched[0]] = r
+                                acc[r] += got
             stats[mv, 0] += removed
             stats[mv, 2] += overlap
             stats[mv, 3] = max(stats[mv, 3], overlap_max)
