@@ -16,7 +16,7 @@ Here (``edge_paths``) the lean direction is ``edge outward + SIDE_SHARE n``, whi
 turns monotonically round the edge (from one side's normal to the other's, through
 the edge's outward direction, by at most 2 atan(SIDE_SHARE)), and each level's lean
 is the first of ``LEAN_LADDER_DEG`` whose initial postures keep every clearance
-(``interference.check_path``), so the eq. 7 remedy has nothing to turn. After the
+(``interference.first_interference``), so the eq. 7 remedy has nothing to turn. After the
 M3 procedure (``fillet_plan.finish_trimmed``) every posture must still lean at least
 ``MIN_LEAN_DEG`` off the surface at its contact (``lean_at_contact``); a level that
 does not is planned again at the next lean of the ladder. Levels that reach the end
@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from cam.collision import CollisionScene
 from cam.finishing.edge_paths import EdgeLevel, edge_levels
 from cam.finishing.fillet_plan import finish_trimmed
-from cam.finishing.interference import check_path
+from cam.finishing.interference import first_interference
 from cam.finishing.options import FinishOptions, scallop_stepover
 from cam.finishing.paths import CutterPath, rotate_path
 from cam.finishing.plan import FinishResult, PathResult
@@ -74,12 +74,14 @@ class EdgeReport:
     low_lean_points: dict[str, int] = field(default_factory=dict)
 
 
-def _clear_at_start(path: CutterPath, tool: Tool, scene: CollisionScene,
-                    options: FinishOptions) -> bool:
-    """Whether the path's initial postures (with the C tilt) keep every clearance."""
+def _witness(path: CutterPath, tool: Tool, scene: CollisionScene, options: FinishOptions,
+             first: int | None) -> int:
+    """A posture of the path's initial postures (the C tilt applied) that breaks a
+    clearance (itself or its motion to the next), or -1; ``first`` is tried first
+    (``interference.first_interference``: the witness of the previous lean)."""
     axis, _ = initial_axes(path.reference_axis, path.away, math.radians(options.c_tilt_deg))
-    check = check_path(scene, tool, path.centre - tool.radius * axis, axis, options)
-    return not (check.collides.any() or check.motion_collides.any())
+    return first_interference(scene, tool, path.centre - tool.radius * axis, axis,
+                              np.arange(len(path), dtype=np.intp), options, first)
 
 
 def _plan_level(level: EdgeLevel, passage: int, pitch: float, tool: Tool, kins: Kinematics,
@@ -92,13 +94,16 @@ def _plan_level(level: EdgeLevel, passage: int, pitch: float, tool: Tool, kins: 
     result: PathResult | None = None
     low = 0
     rung = first
+    witness: int | None = None
     for rung in range(first, len(LEAN_LADDER_DEG)):
         path = level.leaned(LEAN_LADDER_DEG[rung])
         if passage:
             path = rotate_path(path, passage, pitch)
-        last = rung == len(LEAN_LADDER_DEG) - 1
-        if not last and not _clear_at_start(path, tool, scene, options):
-            continue
+        if rung < len(LEAN_LADDER_DEG) - 1:
+            found = _witness(path, tool, scene, options, witness)
+            if found >= 0:
+                witness = found
+                continue
         result = finish_trimmed(path, tool, kins, scene, options, surfaces)
         low = int(np.count_nonzero(lean_at_contact(result.axis, result.path.normal)
                                    < MIN_LEAN_DEG))
