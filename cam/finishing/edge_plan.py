@@ -68,7 +68,8 @@ def lean_at_contact(axis: Array, normal: Array) -> Array:
 @dataclass
 class EdgeReport:
     """What the lean search did, per path name: the lean used and the postures left
-    below ``MIN_LEAN_DEG`` (0 for every path on the fixtures)."""
+    below ``MIN_LEAN_DEG`` (0 on every path of nine_blade and round_te as measured).
+    Kept in ``FinishResult.extra["edge"]``; not written to finish.json."""
 
     lean_deg: dict[str, float] = field(default_factory=dict)
     low_lean_points: dict[str, int] = field(default_factory=dict)
