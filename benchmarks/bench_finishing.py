@@ -73,6 +73,45 @@ def main_job_settings(spec: Path) -> tuple[str, dict[str, Any]]:
     return str(machining["finish_tool"]), options
 
 
+def edge_child(spec: Path, machine: Path, tool_name: str, options: dict[str, Any]) -> None:
+    """Plan the edge passes alone (``plan_edges`` of whichever module the tree has) and
+    print a JSON line: CPU and wall of the planning only (the scene is built first)."""
+    import numpy as np
+
+    from cam.collision import CollisionScene
+    from cam.finishing.options import FinishOptions
+    from cam.finishing.scene import solid_meshes
+    from cam.tools import resolve_tool
+    from geometry.impeller import Impeller
+    from geometry.spec import load_spec
+    from postproc.kinematics import kinematics_for
+    from postproc.machine import load_machine
+
+    try:
+        from cam.finishing.edge_plan import plan_edges
+    except ImportError:  # the trees before the edge operation had its own module
+        from cam.finishing.fillet_plan import plan_edges
+    opts = FinishOptions.from_mapping(options)
+    tool = resolve_tool(tool_name)
+    kins = kinematics_for(load_machine(machine))
+    impeller = Impeller(load_spec(spec))
+    scene = CollisionScene(solid_meshes(impeller, opts.tessellation_mm))
+    wall, cpu = time.perf_counter(), time.process_time()
+    result = plan_edges(impeller.surfaces, tool, kins, scene, opts, scene_source="solid")
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    lean = [np.degrees(np.arcsin(np.clip(np.einsum("ij,ij->i", p.axis, p.path.normal), -1, 1)))
+            for p in result.paths]
+    print(json.dumps({
+        "wall": wall, "cpu": cpu, "points": int(sum(len(p.path) for p in result.paths)),
+        "paths": len(result.paths),
+        "edges": sorted({p.path.name.split(".")[3] for p in result.paths}),
+        "collisions": int(sum(p.interference.interfering_points.size for p in result.paths)),
+        "remedied": int(sum(p.interference.delta_c != 0 for p in result.paths)),
+        "repaired": int(sum(p.repair is not None for p in result.paths)),
+        "min_lean_deg": round(float(min(x.min() for x in lean)), 3),
+        "leaning_in": int(sum(int((x < 0).sum()) for x in lean))}))
+
+
 def child(out: Path, tool: str, options: dict[str, Any]) -> None:
     """Run the finish stage with whatever ``cam`` the path gives; print a JSON line."""
     import cam
@@ -82,6 +121,9 @@ def child(out: Path, tool: str, options: dict[str, Any]) -> None:
     # (e.g. [model]) that the older code refuses
     tree = Path(cam.__file__).resolve().parents[1]
     spec, machine = (tree / p.relative_to(ROOT) for p in (SPEC, MACHINE))
+    if options.pop("edge_only", False):
+        edge_child(spec, machine, tool, options)
+        return
     wall, cpu = time.perf_counter(), time.process_time()
     doc = run_finish(spec, machine, tool, out, progress=False, plots=False, **options)
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
@@ -184,6 +226,9 @@ def main() -> None:
     parser.add_argument("--child", type=Path, default=None, help=argparse.SUPPRESS)
     parser.add_argument("--tool", default=None, help=argparse.SUPPRESS)
     parser.add_argument("--options", default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--edge-only", action="store_true",
+                        help="time the edge passes' planning alone on both sides (scene "
+                             "built first, not timed; no APT, no re-check)")
     parser.add_argument("--edge-passes", action="store_true",
                         help="the new side also plans the edge passes (issue 28), which the "
                              "baseline does not have: off, both sides do the same work")
@@ -192,6 +237,9 @@ def main() -> None:
         child(args.child, args.tool, json.loads(args.options))
         return
     tool, options = main_job_settings(SPEC)
+    if args.edge_only:
+        edge_bench(args, tool, options)
+        return
     if args.production:
         options.update(PRODUCTION)
         args.skip_baseline = True
@@ -247,6 +295,27 @@ def main() -> None:
         check = recheck(work / "new", stl, tool, options)
         print(f"re-check of the new APT poses against {stl.name} (python-fcl, "
               f"{time.perf_counter() - start:.0f} s): {check}")
+
+
+def edge_bench(args: argparse.Namespace, tool: str, options: dict[str, Any]) -> None:
+    """``--edge-only``: the edge passes' planning on the baseline and this tree, one run."""
+    if args.baseline_path is None:
+        raise SystemExit("--edge-only needs --baseline-path")
+    print(f"nine_blade edge passes, {tool}, {MACHINE.name}, options {options}, "
+          f"passages {args.passages or 'all'}")
+    options = dict(options, edge_only=True)
+    sides = {name: run_side(code.resolve(), Path(tempfile.gettempdir()), args.cache / name,
+                            tool, options, args.passages)
+             for name, code in (("baseline", args.baseline_path), ("new", ROOT))}
+    print(f"{'side':<9} {'cpu s':>7} {'wall s':>7} {'paths':>5} {'points':>6} "
+          f"{'us/pt cpu':>9} {'remedied':>8} {'repaired':>8} {'min lean':>8} "
+          f"{'lean in':>7}  edges")
+    for name, s in sides.items():
+        print(f"{name:<9} {s['cpu']:>7.1f} {s['wall']:>7.1f} {s['paths']:>5} {s['points']:>6} "
+              f"{1e6 * s['cpu'] / s['points']:>9.0f} {s['remedied']:>8} {s['repaired']:>8} "
+              f"{s['min_lean_deg']:>8.2f} {s['leaning_in']:>7}  {','.join(s['edges'])}")
+    old, new = sides["baseline"], sides["new"]
+    print(f"per point: {old['cpu'] / old['points'] / (new['cpu'] / new['points']):.1f}x less CPU")
 
 
 if __name__ == "__main__":

@@ -33,7 +33,8 @@ import numpy as np
 import trimesh
 
 from cam.collision import CollisionScene
-from cam.finishing.fillet_plan import check_fillet_tool, plan_edges, plan_fillet
+from cam.finishing.edge_plan import plan_edges
+from cam.finishing.fillet_plan import check_fillet_tool, plan_fillet
 from cam.finishing.linking import Envelope, Linker, LinkRules
 from cam.finishing.options import FinishOptions
 from cam.finishing.order import ordered_passes

@@ -30,18 +30,20 @@ others are rotations.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
-from cam.finishing.fillet_paths import LEAN_DEG, lean_away
+from cam.finishing.fillet_paths import lean_away
 from cam.finishing.paths import CutterPath, Wall, passage_walls
 from geometry.fillet import rolling_ball
-from geometry.outline import OutlineSegment, blade_loop
+from geometry.outline import OutlineSegment, blade_loop, edge_break
 from geometry.surfaces import ImpellerSurfaces
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
 
-__all__ = ["HUB_CLEARANCE_MM", "OVERLAP_MM", "edge_passes", "edge_loop_range"]
+__all__ = ["EDGE_LEAN_DEG", "HUB_CLEARANCE_MM", "OVERLAP_MM", "SIDE_SHARE", "EdgeLevel",
+           "edge_levels", "edge_loop_range", "edge_passes"]
 
 Array = NDArray[np.float64]
 #: How far the edge passes run back onto each side, mm.
@@ -50,9 +52,38 @@ OVERLAP_MM = 2.0
 #: (the junction ball continued round the edge) gouged the small fixture's leading-edge
 #: root by 0.7 mm in verification; the fillet passes' ends cover the root instead.
 HUB_CLEARANCE_MM = 0.1
+#: Lean of the axis off the edge, deg (towards ``across``, see ``_edge_levels``).
+EDGE_LEAN_DEG = 8.0
+#: Weight of the contact normal in the lean direction ``edge outward + SIDE_SHARE n``.
+SIDE_SHARE = 0.5
 #: Coarse samples per outline segment before resampling.
 _COARSE = 40
 _FD = 1e-6
+
+
+@dataclass(frozen=True)
+class EdgeLevel:
+    """One span level of an edge pass, before its lean is chosen.
+
+    Attributes
+    ----------
+    path : CutterPath
+        The pass at ``EDGE_LEAN_DEG`` (operation ``"edge"``).
+    ruling : (n, 3) float64
+        Unit outline v-tangents at the contacts, towards the shroud.
+    across : (n, 3) float64
+        Unit lean directions ``edge outward + SIDE_SHARE n`` (normal to nothing in
+        particular; ``lean_away`` keeps their part normal to the ruling).
+    """
+
+    path: CutterPath
+    ruling: Array
+    across: Array
+
+    def leaned(self, lean_deg: float) -> CutterPath:
+        """The pass with the axis leaned ``lean_deg`` off the ruling towards ``across``."""
+        return replace(self.path, reference_axis=lean_away(self.ruling, self.across,
+                                                           math.radians(lean_deg)))
 
 
 def _unit(a: Array) -> Array:
@@ -109,7 +140,13 @@ def _lowest_v(loop: list[OutlineSegment], surfaces: ImpellerSurfaces, blade_u: A
 
 def edge_passes(surfaces: ImpellerSurfaces, radius: float, stepover: float, spacing: float,
                 passage: int = 0) -> list[CutterPath]:
-    """Passes round the leading edge (and a round trailing edge) of passage 0's blades.
+    """``edge_levels``' passes at the default lean ``EDGE_LEAN_DEG``."""
+    return [level.path for level in edge_levels(surfaces, radius, stepover, spacing, passage)]
+
+
+def edge_levels(surfaces: ImpellerSurfaces, radius: float, stepover: float, spacing: float,
+                passage: int = 0) -> list[EdgeLevel]:
+    """Passes round the leading and trailing edges of passage 0's blades.
 
     Parameters
     ----------
@@ -123,14 +160,13 @@ def edge_passes(surfaces: ImpellerSurfaces, radius: float, stepover: float, spac
 
     Returns
     -------
-    list of CutterPath
-        Operation ``"edge"``; per blade (blade 0, splitter 0: the other passages'
-        rotations give the others) and edge, the span levels from the hub up
+    list of EdgeLevel
+        Paths of operation ``"edge"``; per blade (blade 0, splitter 0: the other
+        passages' rotations give the others) and edge, the span levels from the hub up
         (``<blade>.<edge>.<k>``). ``normal``: the outline's normal at the contact.
     """
-    spec = surfaces.spec
-    edges = ["leading_edge"] + (["trailing_edge"] if spec.trailing_edge == "round" else [])
-    out: list[CutterPath] = []
+    edges = ["leading_edge", "trailing_edge"]
+    out: list[EdgeLevel] = []
     # the -theta wall of each pair: blade 0 (and splitter 0); the rotations give the rest
     for wall, opposite in passage_walls(surfaces):
         name = wall.label.split(".")[0]
@@ -142,7 +178,7 @@ def edge_passes(surfaces: ImpellerSurfaces, radius: float, stepover: float, spac
 
 def _edge_levels(surfaces: ImpellerSurfaces, wall: Wall, opposite: Wall, name: str,
                  edge: str, radius: float, stepover: float, spacing: float, passage: int
-                 ) -> list[CutterPath]:
+                 ) -> list[EdgeLevel]:
     blade = wall.blade
     loop = blade_loop(blade, surfaces.spec.leading_edge, surfaces.spec.trailing_edge)
     uu = np.linspace(0.0, 1.0, 41)
@@ -163,7 +199,10 @@ def _edge_levels(surfaces: ImpellerSurfaces, wall: Wall, opposite: Wall, name: s
     coarse = coarse if end > start else coarse[::-1]
     # the chord between postures round the edge (centre radius R + d/2) stays within
     # the chordal tolerance of the offset circle
-    bend = radius + 0.5 * float(blade.thickness(0.0 if edge == "leading_edge" else 1.0))
+    u_edge = 0.0 if edge == "leading_edge" else 1.0
+    kind = surfaces.spec.leading_edge if edge == "leading_edge" else surfaces.spec.trailing_edge
+    bend = radius + (0.5 * float(blade.thickness(u_edge)) if kind == "round"
+                     else edge_break(blade, u_edge))
     spacing = min(spacing, math.sqrt(8.0 * bend * DEFAULT_TOLERANCES.chordal))
     _, _, u0, _ = _evaluate(loop, coarse, np.zeros_like(coarse), radius)
     low = _lowest_v(loop, surfaces, u0, coarse, radius, v_limit(u0))
@@ -181,15 +220,19 @@ def _edge_levels(surfaces: ImpellerSurfaces, wall: Wall, opposite: Wall, name: s
     levels = max(int(math.ceil(float(np.linalg.norm(bottom - tip, axis=1).max()) / stepover)),
                  1)
     curve_u = wall.curve_u(u)
+    middle = np.full(len(lp), 6.5 if edge == "leading_edge" else 2.5)
     out = []
     for k in range(1, levels + 1):
         v = low * (1.0 - k / levels)
         centre, normal, _, ruling = _evaluate(loop, lp, v, radius)
         if float(surfaces.hub.signed_distance(centre).min()) < radius + HUB_CLEARANCE_MM:
             continue
-        out.append(CutterPath(
+        _, outward, _, _ = _evaluate(loop, middle, v, radius)
+        across = _unit(outward + SIDE_SHARE * normal)
+        out.append(EdgeLevel(CutterPath(
             name=f"p{passage}.edge.{name}.{edge}.{k:02d}", operation="edge", passage=passage,
             centre=centre, normal=normal,
-            reference_axis=lean_away(ruling, normal, math.radians(LEAN_DEG)), away=normal,
-            opposite_tip=opposite.tip_points(curve_u), curve_u=curve_u))
+            reference_axis=lean_away(ruling, across, math.radians(EDGE_LEAN_DEG)),
+            away=across, opposite_tip=opposite.tip_points(curve_u), curve_u=curve_u),
+            ruling, across))
     return out

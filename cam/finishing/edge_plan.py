@@ -1,0 +1,156 @@
+"""The edge finishing operation: each span level's lean chosen so the flutes stay off.
+
+An edge pass's ball touches the blade's outline at its contact; above the ball the
+flutes (a cylinder of the ball's radius) must lean off the blade, else they cut
+into the edge beside the contact. The collision check of the M3 procedure cannot see
+that: it shrinks the cutter by ``cutter_allowance_mm`` (0.05 mm) so that the ball may
+touch what it cuts, so flutes leaning *towards* the surface pass it while cutting up
+to that much into the part. That was the cause of the main job's five gouges of
+0.050-0.053 mm on nine_blade's leading edges (verification tolerance 0.05 mm): the
+edge passes leaned 5 deg towards the local contact normal, which turns by 180 deg
+round the edge, so A and C reversed; the smoothing, the eq. 7 remedy (C turned by up
+to 49 deg to keep the shank 2.5 mm off the blade at the lower levels) and the repair
+then turned the axes until they leaned 2-7 deg *into* the edge at the gouges.
+
+Here (``edge_paths``) the lean direction is ``edge outward + SIDE_SHARE n``, which
+turns monotonically round the edge (from one side's normal to the other's, through
+the edge's outward direction, by at most 2 atan(SIDE_SHARE)), and each level's lean
+is the first of ``LEAN_LADDER_DEG`` whose initial postures keep every clearance
+(``interference.first_interference``), so the eq. 7 remedy has nothing to turn. After the
+M3 procedure (``fillet_plan.finish_trimmed``) every posture must still lean at least
+``MIN_LEAN_DEG`` off the surface at its contact (``lean_at_contact``); a level that
+does not is planned again at the next lean of the ladder. Levels that reach the end
+of the ladder keep the last result, and their postures below the minimum lean are
+counted (``EdgeReport``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam.collision import CollisionScene
+from cam.finishing.edge_paths import EdgeLevel, edge_levels
+from cam.finishing.fillet_plan import finish_trimmed
+from cam.finishing.interference import first_interference
+from cam.finishing.options import FinishOptions, scallop_stepover
+from cam.finishing.paths import CutterPath, rotate_path
+from cam.finishing.plan import FinishResult, PathResult
+from cam.finishing.posture import initial_axes
+from cam.tools import Tool
+from geometry.surfaces import ImpellerSurfaces
+from postproc.kinematics import Kinematics
+
+__all__ = ["LEAN_LADDER_DEG", "MIN_LEAN_DEG", "EdgeReport", "lean_at_contact", "plan_edges"]
+
+Array = NDArray[np.float64]
+#: Leans tried per level, deg: the first whose initial postures are clear is planned.
+LEAN_LADDER_DEG = (8.0, 12.0, 16.0, 20.0, 25.0, 30.0)
+#: Least lean of the final axis off the surface at the contact, deg.
+MIN_LEAN_DEG = 0.5
+
+
+def lean_at_contact(axis: Array, normal: Array) -> Array:
+    """Lean of unit axes off the surface at the contact, deg, ``(n,)``.
+
+    ``asin(a . n)``: positive when the flutes above the ball centre lean away from the
+    surface (the contact lies below the ball's equator), negative when they lean into
+    it.
+    """
+    return np.asarray(np.degrees(np.arcsin(np.clip(np.einsum("ij,ij->i", axis, normal),
+                                                   -1.0, 1.0))))
+
+
+@dataclass
+class EdgeReport:
+    """What the lean search did, per path name: the lean used and the postures left
+    below ``MIN_LEAN_DEG`` (0 on every path of nine_blade and round_te as measured).
+    Kept in ``FinishResult.extra["edge"]``; not written to finish.json."""
+
+    lean_deg: dict[str, float] = field(default_factory=dict)
+    low_lean_points: dict[str, int] = field(default_factory=dict)
+
+
+def _witness(path: CutterPath, tool: Tool, scene: CollisionScene, options: FinishOptions,
+             first: int | None) -> int:
+    """A posture of the path's initial postures (the C tilt applied) that breaks a
+    clearance (itself or its motion to the next), or -1; ``first`` is tried first
+    (``interference.first_interference``: the witness of the previous lean)."""
+    axis, _ = initial_axes(path.reference_axis, path.away, math.radians(options.c_tilt_deg))
+    return first_interference(scene, tool, path.centre - tool.radius * axis, axis,
+                              np.arange(len(path), dtype=np.intp), options, first)
+
+
+def _plan_level(level: EdgeLevel, passage: int, pitch: float, tool: Tool, kins: Kinematics,
+                scene: CollisionScene, options: FinishOptions, surfaces: ImpellerSurfaces,
+                first: int) -> tuple[PathResult, int, int]:
+    """Finish one level in ``passage`` from ladder rung ``first`` on.
+
+    Returns the result, the rung used and its count of postures below the minimum lean.
+    """
+    result: PathResult | None = None
+    low = 0
+    rung = first
+    witness: int | None = None
+    for rung in range(first, len(LEAN_LADDER_DEG)):
+        path = level.leaned(LEAN_LADDER_DEG[rung])
+        if passage:
+            path = rotate_path(path, passage, pitch)
+        if rung < len(LEAN_LADDER_DEG) - 1:
+            found = _witness(path, tool, scene, options, witness)
+            if found >= 0:
+                witness = found
+                continue
+        result = finish_trimmed(path, tool, kins, scene, options, surfaces)
+        low = int(np.count_nonzero(lean_at_contact(result.axis, result.path.normal)
+                                   < MIN_LEAN_DEG))
+        if not low and not result.interference.interfering_points.size:
+            break
+    assert result is not None
+    return result, rung, low
+
+
+def plan_edges(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
+               scene: CollisionScene, options: FinishOptions, *, scene_source: str,
+               progress: Callable[[int, int, str], None] | None = None) -> FinishResult:
+    """Finish the passes round the blade edges of every passage with ``tool``.
+
+    Parameters
+    ----------
+    surfaces : ImpellerSurfaces
+    tool : Tool
+        The blade and hub finishing ball (span levels at its scallop stepover).
+    kins, scene, options, scene_source, progress
+        As ``plan.plan_finishing``.
+
+    Returns
+    -------
+    FinishResult
+        Paths of operation ``"edge"`` in passage order; ``extra["edge"]``: the
+        ``EdgeReport``.
+    """
+    levels = edge_levels(surfaces, tool.radius,
+                         scallop_stepover(tool.radius, options.scallop_mm),
+                         options.point_spacing_mm)
+    blades = surfaces.spec.blades
+    count = blades if options.passages is None else min(options.passages, blades)
+    pitch = surfaces.spec.pitch
+    report = EdgeReport()
+    start = [0] * len(levels)
+    results: list[PathResult] = []
+    total = count * len(levels)
+    for k in range(count):
+        for i, level in enumerate(levels):
+            result, rung, low = _plan_level(level, k, pitch, tool, kins, scene, options,
+                                            surfaces, start[i])
+            start[i] = rung  # the other passages are near rotations: start there
+            report.lean_deg[result.path.name] = LEAN_LADDER_DEG[rung]
+            report.low_lean_points[result.path.name] = low
+            results.append(result)
+            if progress is not None:
+                progress(len(results), total, result.path.name)
+    return FinishResult(results, tool, options, scene_source, extra={"edge": report})
