@@ -38,8 +38,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def main() -> None:
     from cam.collision import CollisionScene
+    from cam.finishing.edge_plan import plan_edges
     from cam.finishing.fillet_cover import edge_samples, fillet_samples, material_left
-    from cam.finishing.fillet_plan import choose_fillet_tool, plan_edges, plan_fillet
+    from cam.finishing.fillet_plan import choose_fillet_tool, plan_fillet
     from cam.finishing.options import FinishOptions
     from cam.finishing.paths import passage_walls
     from cam.finishing.scene import solid_meshes

@@ -9,8 +9,7 @@
   and repair), with the fillet tool. The result is a ``FinishResult`` of its own
   (its tool differs from the blade and hub finishing tool): one more APT file,
   ``finish_fillet.apt``.
-* ``plan_edges``: the passes round the blade edges (``edge_paths.edge_passes``)
-  with the blade and hub finishing tool, operation ``edge`` (``finish_edge.apt``).
+* The passes round the blade edges are ``cam.finishing.edge_plan.plan_edges``.
 * A pass whose first or last postures still break a rule after the remedy and the
   repair (round a cut trailing edge, where the pass turns from the side onto the
   edge face) is shortened at that end, to start after / end before them (at most
@@ -32,9 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from cam.collision import CollisionScene
-from cam.finishing.edge_paths import edge_passes
 from cam.finishing.fillet_paths import LEAN_DEG, fillet_passes
-from cam.finishing.options import FinishOptions, scallop_stepover
+from cam.finishing.options import FinishOptions
 from cam.finishing.paths import CutterPath, rotate_path, subset_path
 from cam.finishing.plan import FinishResult, PathResult, finish_path
 from cam.tools import DEFAULT_LIBRARY, Tool, load_tool_library
@@ -44,7 +42,7 @@ from postproc.kinematics import Kinematics
 
 __all__ = ["check_fillet_tool", "choose_fillet_tool", "finish_pieces", "finish_trimmed",
            "neck_lean",
-           "plan_edges", "plan_fillet"]
+           "plan_fillet"]
 
 #: A ball this much larger than the fillet still counts as "equal" (rounding), mm.
 RADIUS_SLACK = 1e-6
@@ -214,24 +212,6 @@ def plan_fillet(surfaces: ImpellerSurfaces, tool: Tool, main_radius: float, kins
     base = fillet_passes(surfaces, tool.radius, main_radius, options.scallop_mm,
                          options.point_spacing_mm,
                          lean=neck_lean(tool, options.clearance_mm))
-    return _finish_all(base, surfaces, tool, kins, scene, options, scene_source, progress)
-
-
-def plan_edges(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
-               scene: CollisionScene, options: FinishOptions, *, scene_source: str,
-               progress: Callable[[int, int, str], None] | None = None) -> FinishResult:
-    """Finish the passes round the blade edges of every passage with ``tool``.
-
-    Parameters as ``plan_fillet`` (``tool``: the blade and hub finishing ball; the
-    span levels at its scallop stepover).
-
-    Returns
-    -------
-    FinishResult
-        Paths of operation ``"edge"`` in passage order.
-    """
-    base = edge_passes(surfaces, tool.radius, scallop_stepover(tool.radius, options.scallop_mm),
-                       options.point_spacing_mm)
     return _finish_all(base, surfaces, tool, kins, scene, options, scene_source, progress)
 
 
