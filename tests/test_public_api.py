@@ -25,8 +25,9 @@ from typing import Any
 
 import pytest
 
-#: Every package front door with an ``__all__`` (``cam.motion`` has none yet).
-FRONT_DOORS = ("geometry", "cam", "cam.roughing", "cam.finishing", "cam.verify", "postproc",
+#: Every package front door with an ``__all__``.
+FRONT_DOORS = ("geometry", "cam", "cam.roughing", "cam.finishing", "cam.verify", "cam.motion",
+               "postproc",
                "cam.run", "cam.report", "cam.collision", "postproc.kinematics",
                "postproc.posts", "impeller_cam")
 

@@ -63,7 +63,13 @@ class AxisModels:
         return [name for name, text in self.source.items() if text != "identified"]
 
     def by_name(self) -> dict[str, FeedDriveAxis]:
-        """Models keyed by axis name."""
+        """Models keyed by axis name.
+
+        Returns
+        -------
+        dict of str to FeedDriveAxis
+            ``{"X": model, ...}``.
+        """
         return {model.name: model for model in self.models.values()}
 
 
@@ -97,6 +103,16 @@ def default_axis(spec: AxisSpec, template: FeedDriveAxis) -> FeedDriveAxis:
 
 def machine_axis_models(machine: Machine) -> AxisModels:
     """A feed-drive model for every axis of ``machine`` (module doc for the rule).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine file: each axis's ``[axes.<NAME>.servo]`` table, limits.
+
+    Returns
+    -------
+    AxisModels
+        One model per joint column, identified or defaulted (``source`` says which).
 
     Raises
     ------

@@ -248,6 +248,11 @@ def blended_program_time(program: MachineProgram, machine: Machine,
         Joint targets instead of ``program.joints`` (TCP blocks mapped to joints).
     tolerance : float
         ``G64 P``, mm.
+
+    Returns
+    -------
+    BlendedTime
+        Per-block blended durations, s.
     """
     vel, acc, jerk = axis_limits(machine)
     targets = program.joints if joints is None else joints

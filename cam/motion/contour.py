@@ -140,6 +140,12 @@ def contour_error(
         Commanded and simulated joints (mm, rad) at the same sample times.
     window : int
         Samples searched behind each instant (a quarter of it ahead).
+
+    Returns
+    -------
+    ContourError
+        Per-sample contour (mm, normal to the commanded tip path), tool-axis (deg)
+        and tracking (mm) errors.
     """
     from postproc.kinematics import kinematics_for
 

@@ -130,7 +130,13 @@ class CycleTime:
         return float(self.limited.sum())
 
     def as_dict(self) -> dict[str, object]:
-        """JSON-ready summary."""
+        """JSON-ready summary.
+
+        Returns
+        -------
+        dict
+            Cycle time (s), nominal time, the slowest block's line.
+        """
         slow = int(np.argmax(self.limited - self.nominal)) if len(self.line) else -1
         return {
             "cycle_time_s": self.limited_total,

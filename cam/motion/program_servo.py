@@ -145,7 +145,13 @@ class ServoReport:
         return [n for n, s in self.model_source.items() if s != "identified"]
 
     def as_dict(self) -> dict[str, object]:
-        """JSON-ready summary (per-block arrays as worst lines)."""
+        """JSON-ready summary (per-block arrays as worst lines).
+
+        Returns
+        -------
+        dict
+            Largest and RMS contour error (mm), the worst line, K_FFP advice.
+        """
         worst = int(np.argmax(self.deviation)) if len(self.deviation) else -1
         out: dict[str, object] = {
             "max_contour_error_mm": float(self.deviation.max()) if worst >= 0 else 0.0,

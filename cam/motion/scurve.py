@@ -24,6 +24,7 @@ Internal units: mm (or rad), s. Negative strokes move backwards (mirror image).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numba
@@ -77,7 +78,8 @@ class SCurveProfiles:
     @property
     def duration(self) -> Array:
         """Total duration (access time) of each move ``(n,)``, s."""
-        return self.durations.sum(axis=1)
+        total: Array = self.durations.sum(axis=1)
+        return total
 
     @property
     def peak_velocity(self) -> Array:
@@ -115,7 +117,7 @@ def _phase_time(v: float, amax: float, tj: float) -> float:  # pragma: no cover
     """Duration of a rest-to-``v`` phase under (amax, jerk amax/tj), s."""
     if v >= amax * tj:
         return v / amax + tj
-    return 2.0 * np.sqrt(v * tj / amax)
+    return 2.0 * math.sqrt(v * tj / amax)
 
 
 @numba.njit(cache=True)
@@ -123,7 +125,7 @@ def _phase_slope(v: float, amax: float, tj: float) -> float:  # pragma: no cover
     """d(phase time)/dv."""
     if v >= amax * tj:
         return 1.0 / amax
-    return np.sqrt(tj / amax / max(v, 1e-300))
+    return math.sqrt(tj / amax / max(v, 1e-300))
 
 
 @numba.njit(cache=True)

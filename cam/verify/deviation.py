@@ -74,7 +74,7 @@ class DesignDistance:
     ) -> None:
         import trimesh
 
-        v, f, source = trimesh.remesh.subdivide_to_size(
+        v, f, source = trimesh.remesh.subdivide_to_size(  # type: ignore[no-untyped-call]
             np.asarray(vertices, np.float64), np.asarray(faces, np.int64), max_edge=max_edge,
             return_index=True,
         )

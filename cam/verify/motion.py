@@ -83,7 +83,8 @@ def _angles(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float6
     """Angles between unit vectors row by row, rad (stable for small angles)."""
     cross = np.linalg.norm(np.cross(a, b), axis=-1)
     dot = np.sum(a * b, axis=-1)
-    return np.arctan2(cross, dot)
+    angles: NDArray[np.float64] = np.arctan2(cross, dot)
+    return angles
 
 
 class _Poser:
@@ -120,7 +121,8 @@ class _Poser:
         self.tip = tip
         self.axis = axis
 
-    def at(self, block: NDArray[np.int64], frac: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+    def at(self, block: NDArray[np.int64], frac: NDArray[np.float64]
+           ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Tip and axis (n, 3) inside blocks ``block`` at fractions ``frac``."""
         j0 = self.joints_prog[block]
         j1 = self.joints_prog[block + 1]
@@ -132,11 +134,12 @@ class _Poser:
             tip[tcp] = lin[tcp]
         return tip, axis
 
-    def machine_joints(self, block: NDArray[np.int64], frac: NDArray[np.float64]) -> NDArray:
+    def machine_joints(self, block: NDArray[np.int64], frac: NDArray[np.float64]
+                       ) -> NDArray[np.float64]:
         """Machine joints (n, 5) at fractions of blocks (TCP tips mapped through kinematics)."""
         j0 = self.joints_prog[block]
         j1 = self.joints_prog[block + 1]
-        joints = j0 + frac[:, None] * (j1 - j0)
+        joints: NDArray[np.float64] = j0 + frac[:, None] * (j1 - j0)
         tcp = self.tcp[block]
         if tcp.any():
             tip, _ = self.at(block[tcp], frac[tcp])

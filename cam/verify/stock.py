@@ -17,6 +17,7 @@ from __future__ import annotations
 import os
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -414,7 +415,7 @@ class Stock:
         """
         import io
 
-        arrays: dict[str, NDArray] = {
+        arrays: dict[str, NDArray[Any]] = {
             "version": np.array([STATE_VERSION], np.int64),
             "pitch": np.array([self.pitch]),
             "bounds": np.vstack([self.lower, self.upper]),

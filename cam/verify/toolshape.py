@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -82,7 +83,8 @@ class ToolShape:
     profile_error: float
 
 
-def _corner_frusta(radius: float, corner: float, segments: int) -> tuple[list, float]:
+def _corner_frusta(radius: float, corner: float, segments: int
+                   ) -> tuple[list[Any], float]:
     """Frusta along a bull-nose corner arc, vertices pushed out by half the sagitta."""
     inner = radius - corner
     angles = np.linspace(0.0, 0.5 * math.pi, segments + 1)
