@@ -88,12 +88,6 @@ def _run_settings(job: dict[str, Any], library: Path | None) -> dict[str, Any]:
     return settings
 
 
-def _message(error: BaseException) -> tuple[str, str]:
-    if isinstance(error, InputError):
-        return str(error), "input"
-    return f"{type(error).__name__}: {error}", "internal"
-
-
 def _collect(folder: Path, mode: str) -> dict[str, bytes]:
     """Files of the variant folder (relative POSIX path -> bytes), hidden ones left out."""
     files: dict[str, bytes] = {}
@@ -127,6 +121,7 @@ def variant_task(job: dict[str, Any]) -> dict[str, Any]:
     """
     import tomli_w
 
+    from cam.run.batch import failure
     from cam.run.chain import run_chain
     from cam.run.sweep_figures import variant_figures
 
@@ -151,7 +146,7 @@ def variant_task(job: dict[str, Any]) -> dict[str, Any]:
         try:
             spec = _generate(design, variant / "spec")
         except Exception as error:  # noqa: BLE001 - an invalid variant is a row
-            message, kind = _message(error)
+            message, kind = failure(error)
             result.update(status="invalid", stage="design", error=message, kind=kind)
             spec = None
         if spec is not None:
@@ -160,7 +155,7 @@ def variant_task(job: dict[str, Any]) -> dict[str, Any]:
                     run_chain(spec, machine, variant / "run", only=stage, progress=False,
                               **settings)
                 except Exception as error:  # noqa: BLE001 - a failed variant is a row
-                    message, kind = _message(error)
+                    message, kind = failure(error)
                     result.update(status="failed", stage=stage, error=message, kind=kind)
                     if kind == "internal":
                         result["traceback"] = traceback.format_exc(limit=8)
@@ -169,7 +164,7 @@ def variant_task(job: dict[str, Any]) -> dict[str, Any]:
                 result["figures"] = variant_figures(variant / "spec", variant / "run",
                                                     machine, settings.get("post"), library)
             except Exception as error:  # noqa: BLE001 - reported with the variant
-                message, kind = _message(error)
+                message, kind = failure(error)
                 result.update(status="failed", stage=result["stage"] or "figures",
                               error=result["error"] or message, kind=result["kind"] or kind)
         result["files"] = _collect(variant, job.get("files", "json"))

@@ -147,3 +147,19 @@ def test_invalid_variants_are_rows(tmp_path: Path) -> None:
     assert page.count("<svg") == 2 and "sortBy" in page and "small_001" in page
     for reference in ('src="http', "src='http", 'href="http', "url(http", "<script src"):
         assert reference not in page  # nothing is loaded at view time
+
+
+def test_parquet_holds_the_csv_rows(tmp_path: Path) -> None:
+    pq = pytest.importorskip("pyarrow.parquet")
+    from cam.run.sweep_table import write_csv, write_parquet
+
+    rows = [{"variant": "a", "status": "done", "n": 3, "x": 0.1, "ok": True, "t": None},
+            {"variant": "b", "status": "invalid", "n": None, "x": 2, "ok": None, "t": None}]
+    names = list(rows[0])
+    assert write_parquet(tmp_path / "t.parquet", rows, names) is None
+    write_csv(tmp_path / "t.csv", rows, names)
+    table = pq.read_table(tmp_path / "t.parquet").to_pylist()
+    assert table == [{**rows[0]}, {**rows[1], "x": 2.0}]  # one type per column
+    with open(tmp_path / "t.csv", newline="") as handle:
+        text = list(csv.DictReader(handle))
+    assert [float(r["x"]) for r in text] == [r["x"] for r in table]
