@@ -44,7 +44,7 @@ def sweep_command(
     workers: Annotated[int, typer.Option(help="Local Dask worker processes.")] = 2,
     tool: Annotated[
         str | None, typer.Option("-t", "--tool", help="Tool for both operations (over the "
-                                 "design's [machining]).")
+                                 "design's machining table).")
     ] = None,
     rough_tool: Annotated[str | None, typer.Option("--rough-tool", help="Roughing tool.")
                           ] = None,
@@ -63,7 +63,11 @@ def sweep_command(
     ] = "json",
     retries: Annotated[int, typer.Option(help="Dask retries of a task that raised.")] = 2,
 ) -> None:
-    """Design variants through the chain on Dask: OUT/sweep.csv, .parquet, .html."""
+    """Design variants through the chain on Dask: OUT/sweep.csv, .parquet, .html.
+
+    Exit code 0: every variant done; 3: some variants invalid or failed (their rows say
+    why); 2: bad input (nothing written). docs/sweep.md.
+    """
     from cam.cli import _machine
     from cam.run.sweep import run_sweep
 

@@ -45,10 +45,11 @@ function sortBy(th) {
 _STYLE = """
 body { font-family: sans-serif; margin: 1.5em; }
 table { border-collapse: collapse; font-size: 12px; }
-th, td { border: 1px solid #ccc; padding: 2px 6px; text-align: right; }
+th, td { border: 1px solid #ccc; padding: 2px 6px; text-align: right; white-space: nowrap; }
 th { background: #eee; cursor: pointer; position: sticky; top: 0; }
 th[data-dir=asc]::after { content: ' \\25B2'; } th[data-dir=desc]::after { content: ' \\25BC'; }
-td.text { text-align: left; max-width: 28em; overflow-wrap: anywhere; }
+td.text { text-align: left; }
+td.text.long { white-space: normal; min-width: 24em; max-width: 40em; }
 tr.invalid { background: #fde8e8; } tr.failed { background: #fff2dc; }
 .plots svg { max-width: 48%; height: auto; display: inline-block; }
 """
@@ -136,7 +137,9 @@ def _cell(value: Any) -> str:
         return f'<td data-v="{value!r}">{value:.4g}</td>'
     if isinstance(value, int):
         return f"<td>{value}</td>"
-    return f'<td class="text">{html.escape(str(value))}</td>'
+    text = str(value)
+    kind = "text long" if len(text) > 40 else "text"
+    return f'<td class="{kind}">{html.escape(text)}</td>'
 
 
 def sweep_html(rows: list[dict[str, Any]], names: list[str], parameters: list[str],

@@ -180,14 +180,14 @@ def test_killed_worker_still_gives_every_row(cluster: Cluster, local_sweep: Path
     thread.start()
     killed = None
     with Client(cluster.address, timeout="60s") as client:
+        pids = client.run(os.getpid)  # worker address -> process id
         deadline = time.monotonic() + 300
         while killed is None and time.monotonic() < deadline:
             busy = [w for w, keys in client.processing().items()
                     if any(str(k).startswith("sweep-") for k in keys)]
             if busy:
                 time.sleep(5)  # mid-task
-                pid = client.scheduler_info()["workers"][busy[0]]["pid"]
-                killed = next(p for p in cluster.workers if p.pid == pid)
+                killed = next(p for p in cluster.workers if p.pid == pids[busy[0]])
                 cluster.kill(killed)
             time.sleep(0.5)
     thread.join(timeout=1800)
