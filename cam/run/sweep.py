@@ -219,7 +219,6 @@ def run_sweep(
     with dask_client(scheduler, workers, connect_timeout) as client:
         futures = {client.submit(variant_task, job, key=f"sweep-{job['name']}-{token}",
                                  pure=False, retries=retries): job for job in jobs}
-        keys = {f.key for f in futures}
         pending = set(futures)
         while pending:
             try:
@@ -237,7 +236,7 @@ def run_sweep(
                 records[job["name"]] = write_variant(out, result, by_name[job["name"]].design)
             counts = {state: sum(r["status"] == state for r in records.values())
                       for state in ("done", "failed", "invalid")}
-            running = _running(client, {str(k) for k in keys} & {str(f.key) for f in pending})
+            running = _running(client, {str(f.key) for f in pending})
             count_line("sweep", {"total": len(jobs), **counts, "running": running,
                                  "queued": len(pending) - running})
     ordered = [records[v.name] for v in found]

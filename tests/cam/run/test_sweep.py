@@ -163,3 +163,22 @@ def test_parquet_holds_the_csv_rows(tmp_path: Path) -> None:
     with open(tmp_path / "t.csv", newline="") as handle:
         text = list(csv.DictReader(handle))
     assert [float(r["x"]) for r in text] == [r["x"] for r in table]
+
+
+def test_a_shipped_library_names_every_tool(tmp_path: Path) -> None:
+    from cam.run.sweep_task import _run_settings, chain_stages
+
+    job = {"design": {"machining": {"rough_tool": "ball6", "finish_tool": "ball4_taper"}},
+           "settings": {"finish_tool": "ball6_taper", "verify_resolution_mm": 0.3}}
+    library = tmp_path / "tools.toml"
+    assert _run_settings(job, None) == job["settings"]
+    assert _run_settings(job, library) == {
+        "rough_tool": f"{library}:ball6", "finish_tool": f"{library}:ball6_taper",
+        "verify_resolution_mm": 0.3}
+    job["settings"] = {"tool": "ball10"}
+    assert _run_settings(job, library) == {"rough_tool": f"{library}:ball10",
+                                           "finish_tool": f"{library}:ball10"}
+    assert chain_stages("design") == [] and chain_stages("rough") == ["geometry", "rough"]
+    assert chain_stages("all")[-1] == "report"
+    with pytest.raises(InputError):
+        chain_stages("post")
