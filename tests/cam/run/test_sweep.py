@@ -182,3 +182,32 @@ def test_a_shipped_library_names_every_tool(tmp_path: Path) -> None:
     assert chain_stages("all")[-1] == "report"
     with pytest.raises(InputError):
         chain_stages("post")
+
+
+def test_task_carries_its_inputs_and_the_client_writes_whole_folders(
+        design: dict, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from cam.run.sweep import write_variant
+    from cam.run.sweep_task import variant_task
+
+    monkeypatch.chdir(tmp_path)  # the task uses no path of the client's
+    found = variants(design, [parse_vary("blades=6,40", design)], "small")
+    job = {"name": found[0].name, "parameters": found[0].parameters,
+           "design": found[0].design, "stages": "design", "settings": {},
+           "machine": {"name": "m.toml", "text": CHAIN_MACHINE.read_text()},
+           "library": None, "files": "json"}
+    result = variant_task(job)
+    assert result["status"] == "done" and sorted(tmp_path.iterdir()) == []
+    assert sorted(result["files"]) == ["design.toml", "spec/figures.json",
+                                       "spec/hub_camber.csv", "spec/shroud_camber.csv",
+                                       "spec/spec.toml"]
+    assert result["figures"]["design"]["blades"] == 6 and result["figures"]["rough"] is None
+    bad = variant_task({**job, "name": found[1].name, "design": found[1].design})
+    assert bad["status"] == "invalid" and "touch" in bad["error"] and bad["figures"] is None
+    out = tmp_path / "out"
+    record = write_variant(out, result, found[0].design)
+    assert json.loads((out / "small_000" / "variant.json").read_text()) == record
+    assert (out / "small_000" / "spec" / "spec.toml").read_bytes() == \
+        result["files"]["spec/spec.toml"]
+    with pytest.raises(ValueError):  # nothing half-written: no folder at all
+        write_variant(out, {**bad, "files": {"../x": b""}}, found[1].design)
+    assert sorted(p.name for p in out.iterdir()) == ["small_000"]
