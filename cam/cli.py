@@ -314,8 +314,10 @@ def _options(
 def _mount() -> None:
     from cam.cli_inputs import register
     from cam.motion.cli import motion_app
+    from cam.run.sweep_cli import sweep_command
 
     app.add_typer(motion_app, name="motion")
+    app.command("sweep")(sweep_command)
     register(app)
 
 

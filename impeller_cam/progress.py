@@ -101,3 +101,33 @@ class StageLog:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def count_line(job: str, counts: dict[str, int], stream: Any = None) -> str:
+    """Write one time-stamped line of task counts (``done 3/8, running 2, ...``).
+
+    For jobs of many tasks (a sweep's variants): the caller writes one whenever a task
+    ends and at least once a minute while none does.
+
+    Parameters
+    ----------
+    job : str
+        Prefix of the line.
+    counts : dict
+        ``total`` and the count of each state, in the order to show.
+    stream : file-like, optional
+        Where to write (default: ``sys.stderr``).
+
+    Returns
+    -------
+    str
+        The line written (without the time stamp).
+    """
+    import time
+
+    total = counts.get("total")
+    parts = [f"{state} {n}" + (f"/{total}" if state == "done" and total else "")
+             for state, n in counts.items() if state != "total"]
+    text = f"{job}: " + ", ".join(parts)
+    print(f"[{time.strftime('%H:%M:%S')}] {text}", file=stream or sys.stderr, flush=True)
+    return text

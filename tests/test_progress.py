@@ -6,7 +6,7 @@ import io
 import re
 import time
 
-from impeller_cam.progress import StageLog
+from impeller_cam.progress import StageLog, count_line
 
 
 def test_stage_lines_and_heartbeat() -> None:
@@ -37,3 +37,11 @@ def test_no_heartbeat_between_stages() -> None:
         log.end()
         time.sleep(0.1)
     assert "still running" not in stream.getvalue()
+
+
+def test_count_line() -> None:
+    stream = io.StringIO()
+    text = count_line("sweep", {"total": 8, "done": 3, "failed": 1, "running": 2}, stream)
+    assert text == "sweep: done 3/8, failed 1, running 2"
+    assert re.fullmatch(r"\[\d\d:\d\d:\d\d\] sweep: done 3/8, failed 1, running 2\n",
+                        stream.getvalue())

@@ -21,7 +21,15 @@ from impeller_cam.atomic import write_text_atomic
 from impeller_cam.cluster import dask_client
 from impeller_cam.errors import InputError
 
-__all__ = ["chain_task", "run_batch"]
+__all__ = ["chain_task", "failure", "run_batch"]
+
+
+def failure(error: BaseException) -> tuple[str, str]:
+    """The message and kind of a task's error: ``"input"`` (an ``InputError``, exit
+    code 2: its own message) or ``"internal"`` (1: the exception's type and message)."""
+    if isinstance(error, InputError):
+        return str(error), "input"
+    return f"{type(error).__name__}: {error}", "internal"
 
 
 def chain_task(spec: str, machine: str, out: str, kwargs: dict[str, Any]) -> dict[str, Any]:
@@ -32,9 +40,8 @@ def chain_task(spec: str, machine: str, out: str, kwargs: dict[str, Any]) -> dic
     try:
         run_chain(spec, machine, out, progress=False, **kwargs)
     except BaseException as error:  # noqa: BLE001 - reported, the batch goes on
-        summary.update(status="failed", error=str(error) if isinstance(error, InputError)
-                       else f"{type(error).__name__}: {error}",
-                       kind="input" if isinstance(error, InputError) else "internal")
+        message, kind = failure(error)
+        summary.update(status="failed", error=message, kind=kind)
         record = read_record(Path(out))
         if record is not None:
             failed = [s["name"] for s in record["stages"] if s["status"] == "failed"]
