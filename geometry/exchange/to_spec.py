@@ -216,7 +216,8 @@ def imported_spec(blading: AeroBlading, manufacturing: dict[str, Any]) -> Import
     texts = {FILES["shroud"]: camber_csv_text(shroud_line), FILES["hub"]: camber_csv_text(hub_line)}
     if mid is not None:
         texts[FILES["midspan"]] = camber_csv_text(mid)
-    tables: dict[str, Any] = {k: manufacturing[k] for k in ("allowances", "machining") if k in manufacturing}
+    tables: dict[str, Any] = {k: manufacturing[k] for k in ("allowances", "machining")
+                              if k in manufacturing}
     texts["spec.toml"] = (
         f"# Imported by impeller-cam import from {blading.source.name} ({blading.format}, "
         f"{blading.unit}); see import_report.txt\n"
