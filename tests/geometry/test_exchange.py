@@ -213,3 +213,46 @@ def test_export_refuses_unknown_unit_and_format(tmp_path: Path,
                  "-o", str(tmp_path / "b")]) == 2
     assert "accepted: bladegen or cft-geo" in capsys.readouterr().err
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+
+
+# -- closed-form round trips of design variants (no solid: fast) -----------------------
+def _variant(tmp_path: Path, **changes: object) -> Path:
+    import dataclasses
+
+    from geometry.design import load_design, write_design
+
+    params = load_design(ROOT / "fixtures" / "impellers" / "round_te" / "design.toml")
+    return write_design(dataclasses.replace(params, **changes), tmp_path / "variant")
+
+
+VARIANTS: dict[str, dict[str, object]] = {
+    "round edges": {},
+    "cut edges": {"leading_edge": "cut", "trailing_edge": "cut"},
+    "non-ruled": {"midspan_wrap_offset": math.radians(6.0)},
+    "splitter": {"splitters": 1, "splitter_start": 0.4},
+}
+
+
+@pytest.mark.parametrize("fmt", ["bladegen", "cft-geo"])
+@pytest.mark.parametrize("variant", list(VARIANTS))
+def test_variant_round_trip(variant: str, fmt: str, tmp_path: Path) -> None:
+    from geometry.surfaces import build_surfaces
+
+    spec_path = _variant(tmp_path, **VARIANTS[variant])
+    suffix = "inf" if fmt == "bladegen" else "cft-geo"
+    assert main(["export", str(spec_path), "--format", fmt, "--units", "IN",
+                 "-o", str(tmp_path / "files")]) == 0
+    assert main(["import", str(tmp_path / "files" / f"round_te.{suffix}"),
+                 "-o", str(tmp_path / "back"), "--no-check-solid"]) == 0
+    before, after = load_spec(spec_path), load_spec(tmp_path / "back" / "spec.toml")
+    assert (after.midspan_camber is None) == (before.midspan_camber is None)
+    assert (after.leading_edge, after.trailing_edge, after.splitters) == \
+        (before.leading_edge, before.trailing_edge, before.splitters)
+    a, b = build_surfaces(before), build_surfaces(after)
+    u, v = np.meshgrid(np.linspace(0, 1, 101), np.linspace(0, 1, 11), indexing="ij")
+    for blade_a, blade_b in zip(a.all_blades(), b.all_blades(), strict=True):
+        for side in (1, -1):
+            gap = np.linalg.norm(blade_a.side(u, v, side) - blade_b.side(u, v, side), axis=-1)
+            assert gap.max() < 0.01
+    report = json.loads((tmp_path / "back" / "import_report.json").read_text())
+    assert report["ruled"] is (before.midspan_camber is None)
