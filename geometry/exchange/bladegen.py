@@ -225,8 +225,10 @@ def read_bladegen(path: str | Path) -> AeroBlading:
             laws.append(np.column_stack([split.fraction, split.thickness]))
         blades.append(AeroBlade(np.array(spans), lines, laws, b_le, b_te, True))
     points = np.vstack([loop for blade_loops in loops for loop in blade_loops])
+    at = np.concatenate([np.full(len(loop), span) for blade_loops in loops
+                         for loop, span in zip(blade_loops, spans, strict=True)])
     return AeroBlading(path, "bladegen", unit.value.strip().upper(), path.stem, sets, hub,
-                       shroud, blades, notes, points)
+                       shroud, blades, notes, points, at)
 
 
 # -- writer ----------------------------------------------------------------------------

@@ -21,7 +21,7 @@ from geometry.exchange.bladegen import bladegen_texts, read_bladegen
 from geometry.exchange.cftgeo import cftgeo_text, read_cftgeo
 from geometry.exchange.from_spec import mean_lines, section_loops, surfaces_of
 from geometry.exchange.model import UNITS, AeroBlading
-from geometry.exchange.report import report_texts, solid_distance
+from geometry.exchange.report import report_texts, solid_distance, surface_summary
 from geometry.exchange.to_spec import imported_spec
 from geometry.spec import load_spec
 from impeller_cam.atomic import staged_directory, write_text_atomic
@@ -102,9 +102,10 @@ def run_import(source: Path, out: Path, *, manufacturing: Path | None = None,
         surface = None
         if check_solid and blading.section_points is not None:
             _say("building the solid to measure the section points")
-            worst, where, mean = solid_distance(spec, blading.section_points)
-            surface = {"max_mm": worst, "at": where, "mean_mm": mean,
-                       "points": len(blading.section_points)}
+            points = blading.section_points
+            spans = blading.section_spans if blading.section_spans is not None else \
+                np.zeros(len(points))
+            surface = surface_summary(points, spans, solid_distance(spec, points))
         texts = report_texts(blading, spec, imported.facts, surface)
         for name, text in texts.items():
             write_text_atomic(stage / name, text)

@@ -92,6 +92,8 @@ class AeroBlading:
         What the reader assumed (edge shapes defaulted, ...), for the report.
     section_points : (p, 3) float64 or None
         The file's section points (cartesian mm), when it has sections.
+    section_spans : (p,) float64 or None
+        The span fraction of each section point.
     """
 
     source: Path
@@ -104,3 +106,4 @@ class AeroBlading:
     blades: list[AeroBlade]
     notes: list[str] = field(default_factory=list)
     section_points: Array | None = None
+    section_spans: Array | None = None

@@ -22,7 +22,7 @@ from geometry.exchange.model import AeroBlading
 from geometry.mesh_query import closest_point_on_triangle
 from geometry.spec import ImpellerSpec
 
-__all__ = ["SURFACE_TOLERANCE", "report_texts", "solid_distance"]
+__all__ = ["SURFACE_TOLERANCE", "report_texts", "solid_distance", "surface_summary"]
 
 Array = NDArray[np.float64]
 #: Linear deflection (mm) of the mesh the section points are measured against.
@@ -30,8 +30,8 @@ SURFACE_TOLERANCE = 0.002
 _CANDIDATES = 24
 
 
-def solid_distance(spec: ImpellerSpec, points: Array) -> tuple[float, list[float], float]:
-    """Largest distance (mm) of ``(n, 3)`` points to the spec's solid, the point, the mean.
+def solid_distance(spec: ImpellerSpec, points: Array) -> Array:
+    """Distance (mm) of each of ``(n, 3)`` points to the spec's solid, ``(n,)``.
 
     The solid is built without fillets (the sections end at the hub, where a fillet
     would be).
@@ -44,9 +44,16 @@ def solid_distance(spec: ImpellerSpec, points: Array) -> tuple[float, list[float
     _, near = tree.query(points, k=min(_CANDIDATES, len(triangles)))
     repeated = np.repeat(points, near.shape[1], axis=0)
     foot = closest_point_on_triangle(repeated, triangles[near.ravel()])
-    dist = np.linalg.norm(foot - repeated, axis=1).reshape(near.shape).min(axis=1)
+    return np.asarray(np.linalg.norm(foot - repeated, axis=1).reshape(near.shape).min(axis=1))
+
+
+def surface_summary(points: Array, spans: Array, dist: Array) -> dict[str, Any]:
+    """JSON-ready summary of the section points' distances: overall and per span."""
     i = int(np.argmax(dist))
-    return float(dist[i]), points[i].tolist(), float(dist.mean())
+    per_span = [{"span": float(s), "max_mm": float(dist[spans == s].max()),
+                 "mean_mm": float(dist[spans == s].mean())} for s in np.unique(spans)]
+    return {"max_mm": float(dist[i]), "at": points[i].tolist(), "span": float(spans[i]),
+            "mean_mm": float(dist.mean()), "points": len(points), "per_span": per_span}
 
 
 def report_texts(blading: AeroBlading, spec: ImpellerSpec, facts: dict[str, Any],
@@ -86,9 +93,11 @@ def report_texts(blading: AeroBlading, spec: ImpellerSpec, facts: dict[str, Any]
         lines.append(f"splitter deviates {s['deviation_from_main_mm']:.4f} mm from the main "
                      "blade turned half a pitch")
     if surface is not None:
-        lines.append(f"section points to the rebuilt solid: largest {surface['max_mm']:.4f} mm, "
-                     f"mean {surface['mean_mm']:.4f} mm ({surface['points']} points, mesh "
-                     f"deflection {SURFACE_TOLERANCE} mm, no fillets)")
+        lines.append(f"section points to the rebuilt solid: largest {surface['max_mm']:.4f} mm "
+                     f"(span {100 * surface['span']:.0f}%), mean {surface['mean_mm']:.4f} mm "
+                     f"({surface['points']} points, mesh deflection {SURFACE_TOLERANCE} mm, "
+                     "no fillets); largest per span: " + ", ".join(
+                         f"{100 * s['span']:.0f}%: {s['max_mm']:.4f}" for s in surface["per_span"]))
     lines += [f"note: {n}" for n in facts["notes"]]
     return {"import_report.json": json.dumps(data, indent=2, sort_keys=True) + "\n",
             "import_report.txt": "\n".join(lines) + "\n"}
