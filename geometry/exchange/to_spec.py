@@ -31,7 +31,7 @@ from scipy.optimize import minimize_scalar
 from geometry.camber import camber_curves, chord_parameter, common_nodes, cylindrical_to_cartesian
 from geometry.design import camber_csv_text
 from geometry.exchange.model import AeroBlade, AeroBlading
-from geometry.figures import _project_on_ruled
+from geometry.figures import project_on_camber
 from geometry.revolved import RevolvedSurface
 from geometry.spec_schema import MIN_SPLINE_POINTS
 from geometry.surfaces import BladeSurface, rotation_z
@@ -89,7 +89,7 @@ def _deviation(ruled: BladeSurface, line: Array, span: float) -> tuple[float, fl
     """Largest distance (mm) of a mean line from a camber surface, and its u there."""
     points = cylindrical_to_cartesian(line)
     u0 = np.linspace(0.0, 1.0, len(points))
-    dist = _project_on_ruled(ruled, points, u0, np.full(len(points), 1.0 - span))
+    dist = project_on_camber(ruled, points, u0, np.full(len(points), 1.0 - span))
     i = int(np.argmax(dist))
     return float(dist[i]), float(u0[i])
 
@@ -148,7 +148,7 @@ def _splitter(main: tuple[Any, Any, Any], blade: AeroBlade, sets: int,
     for line, span in zip(lines, blade.spans, strict=True):
         pts = cylindrical_to_cartesian(line) @ turn.T
         u0 = start + np.linspace(0.0, 1.0, len(pts)) * (1.0 - start)
-        dist = _project_on_ruled(surface, pts, u0, np.full(len(pts), 1.0 - span))
+        dist = project_on_camber(surface, pts, u0, np.full(len(pts), 1.0 - span))
         if dist.max() > worst:
             worst, where = float(dist.max()), float(span)
     return start, {"start_fraction": round(start, 9), "hub_le_gap_mm": float(fit.fun),
