@@ -52,6 +52,41 @@ def geometry_command(
     run_geometry(spec, out, tessellation=tessellation, render=render, fillets=fillets)
 
 
+@app.command("import")
+def import_command(
+    source: Annotated[Path, typer.Argument(help="BladeGen FILE.inf or CFturbo FILE.cft-geo.")],
+    out: Annotated[Path, typer.Option("-o", "--out", help="Output spec folder.")],
+    manufacturing: Annotated[
+        Path | None, typer.Option(help="TOML with [hub], [blade] fillet_radius_mm, "
+                                  "[allowances], [machining] (default: manufacturing.toml "
+                                  "beside the file, if any).")
+    ] = None,
+    check_solid: Annotated[
+        bool, typer.Option(help="Build the solid and report the section points' distance.")
+    ] = True,
+) -> None:
+    """Import an aero design: spec.toml, camber CSVs, import_report.json/.txt."""
+    from geometry.exchange.command import run_import
+
+    typer.echo(run_import(source, out, manufacturing=manufacturing, check_solid=check_solid),
+               nl=False)
+
+
+@app.command("export")
+def export_command(
+    spec: Annotated[Path, typer.Argument(help="Impeller spec (TOML).")],
+    fmt: Annotated[str, typer.Option("--format", help="bladegen or cft-geo.")],
+    out: Annotated[Path, typer.Option("-o", "--out", help="Output folder.")],
+    units: Annotated[str, typer.Option(help="Length unit of the files: M, CM, MM, IN.")] = "MM",
+    spans: Annotated[int, typer.Option(help="Spans written, hub to shroud.")] = 5,
+) -> None:
+    """Export a spec as BladeGen/TurboGrid curve files or a CFturbo .cft-geo file."""
+    from geometry.exchange.command import run_export
+
+    for name in run_export(spec, fmt, out, unit=units, spans=spans):
+        typer.echo(f"wrote {out / name}")
+
+
 @app.command("finish")
 def finish_command(
     spec: Annotated[Path, typer.Argument(help="Impeller spec (TOML).")],

@@ -52,6 +52,7 @@ __all__ = [
     "FacingSides",
     "GeometryFigures",
     "check_clearances",
+    "project_on_camber",
     "closest_points",
     "compute_figures",
     "facing_sides",
@@ -335,6 +336,10 @@ def _project_on_ruled(
         if moved < NEWTON_XTOL:
             break
     return np.asarray(np.linalg.norm(ruled.camber(u, v) - points, axis=1))
+
+
+#: The projection above under a public name (any blade's camber patch; geometry.exchange).
+project_on_camber = _project_on_ruled
 
 
 def rule_deviation(

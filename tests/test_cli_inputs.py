@@ -23,9 +23,9 @@ def test_version(capsys: Capture) -> None:
 
 
 def test_unknown_command_is_a_usage_error(capsys: Capture) -> None:
-    assert main(["export"]) == 2
+    assert main(["frobnicate"]) == 2
     err = capsys.readouterr().err
-    assert "No such command 'export'" in err and "Usage:" in err
+    assert "No such command 'frobnicate'" in err and "Usage:" in err
     assert "internal error" not in err
 
 
