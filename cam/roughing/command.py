@@ -408,5 +408,11 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
                                                "segments": int(len(np.unique(path.segment)))})
         if compare:
             write_text_atomic(stage / "table1.md", table1_markdown(document))
+        if check:
+            from cam.roughing.machine_fit import check_machine_fit
+
+            document["machine"] = check_machine_fit(
+                [stage / op["apt"] for op in document["operations"]], machine, the_machine,
+                kins, the_tool, spec)
         write_text_atomic(stage / "rough.json", json.dumps(document, indent=2) + "\n")
     return document
