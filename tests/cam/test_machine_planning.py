@@ -152,3 +152,37 @@ def test_a_machine_collision_is_repaired_or_named(tmp_path: Path,
                               read_nc(_program(tmp_path, rows), machine=machine), "fixed")
         assert not again.events
         assert again.smallest >= 3.0
+
+
+def _umr_apt(tmp_path: Path, kins: Any, tool: Any) -> Path:
+    """One 3+2-like UMR visit through the close poses, as the roughing writes it."""
+    from postproc.apt import write_apt
+    from postproc.toolpath import Cutter, MoveKind, Toolpath
+
+    tip, axis = kins.forward(_joints(CLOSE))
+    above = tip[0] + 30.0 * axis[0]
+    path = Toolpath(tip=np.vstack([above, tip]), axis=np.vstack([axis[:1], axis]),
+                    feed=np.array([math.nan] + [500.0] * len(tip)),
+                    kind=np.array([MoveKind.RAPID] + [MoveKind.FEED] * len(tip), np.int8),
+                    name="rough_umr7", tool_number=tool.number,
+                    cutter=Cutter(tool.diameter, tool.corner_radius, tool.flute_length))
+    return write_apt(tmp_path / "rough.apt", [path])
+
+
+def test_a_umr_orientation_the_machine_cannot_take_is_refused(
+        tmp_path: Path, trunnion: dict[str, Any]) -> None:
+    """The roughing programs are checked as posted: a UMR visit whose orientation
+    brings the head within the table's clearance is refused, naming the UMR; with a
+    20 mm longer tool the same visit passes and rough.json gets its clearance."""
+    from cam.roughing.machine_fit import check_machine_fit
+    from impeller_cam.errors import InputError
+
+    kins, machine = trunnion["kins"], trunnion["machine"]
+    apt = _umr_apt(tmp_path, kins, SHORT_TOOL)
+    with pytest.raises(InputError, match=r"rough_umr7 \(line \d+\): spindle_head and "
+                                         r"rotary_table [12]\.\d\d mm apart, clearance 3\.00"):
+        check_machine_fit([apt], TRUNNION, machine, kins, SHORT_TOOL, NINE_BLADE)
+    longer = resolve_tool("ball6_taper")  # gauge line 145 mm above the tip
+    entry = check_machine_fit([apt], TRUNNION, machine, kins, longer, NINE_BLADE)
+    assert entry is not None and entry["machine_clearance_mm"] >= 3.0
+    assert entry["machine_clearance_umr"] == "rough_umr7"
