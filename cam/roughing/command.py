@@ -260,7 +260,8 @@ def toolpaths(result: RoughResult) -> list[Toolpath]:
 
 def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
               library: str | Path | None = None, progress: bool | None = None,
-              check: bool = True, compare: bool = False, **options: Any) -> dict[str, Any]:
+              check: bool = True, compare: bool = False,
+              refuse_machine_collisions: bool = False, **options: Any) -> dict[str, Any]:
     """Three-axis UMR roughing of an impeller: APT per UMR and rough.json.
 
     Parameters
@@ -283,6 +284,10 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
         Also plan, time and check the paper's simultaneous five-axis baseline and
         write its Table 1 (``table1.md``; the ``5axis`` entries of rough.json). The
         chain's main job leaves it out: it is a research comparison, not a program.
+    refuse_machine_collisions : bool
+        With a machine ``[model]``: refuse the plan when a posted block brings two
+        machine components closer than their clearance (else rough.json ``machine``
+        reports them; ``cam.roughing.machine_fit``).
     **options
         Fields of ``RoughOptions``.
 
@@ -413,6 +418,6 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
 
             document["machine"] = check_machine_fit(
                 [stage / op["apt"] for op in document["operations"]], machine, the_machine,
-                kins, the_tool, spec)
+                kins, the_tool, spec, refuse=refuse_machine_collisions)
         write_text_atomic(stage / "rough.json", json.dumps(document, indent=2) + "\n")
     return document

@@ -11,10 +11,12 @@ check_program``) against the scene the verifier builds - the part's solid from t
 spec's blank (cast at ``BLANK_PITCH``: a coarser cast gives a larger solid, on the
 safe side of the verifier's finer one).
 
-A program the verifier would reject is refused (``InputError``, exit 2) with the UMR
-visit(s) named (the post's ``OPERATION`` section of the offending block), the two
-components, the distance and the clearance; otherwise rough.json gets the smallest
-clearance and where it is.
+Each block the verifier would reject is described with its UMR visit (the post's
+``OPERATION`` section of the offending block), the two components, the distance and
+the clearance: with ``refuse`` the plan is refused (``InputError``, exit 2), else
+they go into rough.json's ``machine`` entry (``machine_collisions``, ``notes``) next
+to the smallest clearance and where it is. (The chain reports: a UMR orientation is
+dictated by the passage, and no other orientation is searched yet.)
 """
 
 from __future__ import annotations
@@ -27,6 +29,8 @@ from impeller_cam.errors import InputError
 
 __all__ = ["BLANK_PITCH", "check_machine_fit"]
 
+#: Machine collisions described in rough.json at most.
+NOTES = 20
 #: Ray spacing of the spec's blank standing for the part, mm.
 BLANK_PITCH = 1.0
 _OPERATION = re.compile(r"OPERATION \d+: (\S+)")
@@ -45,7 +49,8 @@ def _sections(text: str) -> list[str]:
 
 
 def check_machine_fit(apt_files: list[Path], machine_path: str | Path, machine: Any,
-                      kins: Any, tool: Any, spec: str | Path) -> dict[str, Any] | None:
+                      kins: Any, tool: Any, spec: str | Path, refuse: bool = False
+                      ) -> dict[str, Any] | None:
     """Post every APT file in memory and check it against the machine model.
 
     Parameters
@@ -61,6 +66,8 @@ def check_machine_fit(apt_files: list[Path], machine_path: str | Path, machine: 
         The roughing tool (its holder and gauge line ride on the spindle).
     spec : str or Path
         The impeller spec (its blank stands for the part).
+    refuse : bool
+        Raise on the first program with a machine collision (else report them).
 
     Returns
     -------
@@ -68,12 +75,13 @@ def check_machine_fit(apt_files: list[Path], machine_path: str | Path, machine: 
         rough.json's ``machine`` entry: ``machine_clearance_mm`` (smallest distance of
         any checked pair over all programs), ``machine_clearance_pair``,
         ``machine_clearance_umr`` (the UMR visit), ``machine_clearance_joints`` (X Y Z
-        mm, A C deg), ``programs_checked``.
+        mm, A C deg), ``programs_checked``, ``machine_collisions`` (blocks closer than
+        a pair's clearance) and ``notes`` (the first ``NOTES`` of them described).
 
     Raises
     ------
     InputError
-        Some block brings two components closer than their clearance.
+        With ``refuse``: some block brings two components closer than their clearance.
     """
     if machine.model is None:
         return None
@@ -108,7 +116,9 @@ def check_machine_fit(apt_files: list[Path], machine_path: str | Path, machine: 
                 "machine_clearance_joints": [round(float(v), 4) for v in [
                     *check.joints[:3], *np.degrees(check.joints[3:])]],
             })
-    if problems:
+    best["machine_collisions"] = len(problems)
+    best["notes"] = problems[:NOTES]
+    if problems and refuse:
         shown = "; ".join(problems[:5]) + (f"; and {len(problems) - 5} more"
                                           if len(problems) > 5 else "")
         raise InputError(f"the machine's components collide at these UMR orientations or "

@@ -172,8 +172,9 @@ def _umr_apt(tmp_path: Path, kins: Any, tool: Any) -> Path:
 def test_a_umr_orientation_the_machine_cannot_take_is_refused(
         tmp_path: Path, trunnion: dict[str, Any]) -> None:
     """The roughing programs are checked as posted: a UMR visit whose orientation
-    brings the head within the table's clearance is refused, naming the UMR; with a
-    20 mm longer tool the same visit passes and rough.json gets its clearance."""
+    brings the head within the table's clearance is refused (or reported), naming
+    the UMR; with a 20 mm longer tool the same visit passes and rough.json gets its
+    clearance."""
     from cam.roughing.machine_fit import check_machine_fit
     from impeller_cam.errors import InputError
 
@@ -181,8 +182,14 @@ def test_a_umr_orientation_the_machine_cannot_take_is_refused(
     apt = _umr_apt(tmp_path, kins, SHORT_TOOL)
     with pytest.raises(InputError, match=r"rough_umr7 \(line \d+\): spindle_head and "
                                          r"rotary_table [12]\.\d\d mm apart, clearance 3\.00"):
-        check_machine_fit([apt], TRUNNION, machine, kins, SHORT_TOOL, NINE_BLADE)
+        check_machine_fit([apt], TRUNNION, machine, kins, SHORT_TOOL, NINE_BLADE,
+                          refuse=True)
+    reported = check_machine_fit([apt], TRUNNION, machine, kins, SHORT_TOOL, NINE_BLADE)
+    assert reported is not None and reported["machine_collisions"] > 0
+    assert reported["notes"][0].startswith("rough_umr7 (line ")
     longer = resolve_tool("ball6_taper")  # gauge line 145 mm above the tip
-    entry = check_machine_fit([apt], TRUNNION, machine, kins, longer, NINE_BLADE)
+    entry = check_machine_fit([apt], TRUNNION, machine, kins, longer, NINE_BLADE,
+                              refuse=True)
     assert entry is not None and entry["machine_clearance_mm"] >= 3.0
+    assert entry["machine_collisions"] == 0
     assert entry["machine_clearance_umr"] == "rough_umr7"
