@@ -28,10 +28,8 @@ MACHINES = ROOT / "fixtures" / "machines"
 XYZAC = MACHINES / "xyzac-trt.toml"
 STOCK = "cylinder:40,20"
 
-#: The spindle parked beyond the cradle (Y80), the table tilted up to A = +50 under
-#: it: the yoke plate's edge comes 0.31 mm from the holder (the job's 50 mm holder is
-#: wider than the sim's 40 mm spindle housing, so it is the spindle side's first
-#: solid the cradle meets) during line 3.
+#: The spindle parked beyond the platter (Y80), the table tilted up to A = +50 under
+#: it: the platter's rim comes 0.17 mm from the tool's shank during line 3.
 TILT_INTO_HEAD = """G21 G90 G94
 G0 X0 Y80 Z{z} A0 C0
 G1 A50 F1800
@@ -39,7 +37,7 @@ G0 Z120
 M30
 """
 #: Tip heights of the crash and of the same program 10 mm higher, mm.
-LOW, HIGH = -22.0, -12.0
+LOW, HIGH = -8.0, 2.0
 
 
 def _program(tmp_path: Path, z: float) -> Path:
@@ -60,10 +58,10 @@ def test_table_tilted_into_the_head_is_a_machine_collision(tmp_path: Path) -> No
     found = [e for e in data["events"] if e["type"] == "machine_collision"]
     assert found, "the tilt into the head must be found"
     assert {e["line"] for e in found} == {3}
-    assert {tuple(e["components"]) for e in found} == {("yoke_plate", "holder")}
+    assert {tuple(e["components"]) for e in found} == {("rotary_table", "tool")}
     assert 0.0 <= found[0]["distance_mm"] < found[0]["clearance_mm"] == 2.0
     summary = data["programs"][0]
-    assert summary["machine_clearance_pair"] == ["yoke_plate", "holder"]
+    assert summary["machine_clearance_pair"] == ["rotary_table", "tool"]
     assert summary["machine_clearance_line"] == 3
     assert summary["machine_clearance_mm"] == pytest.approx(found[0]["distance_mm"], abs=1e-3)
     assert data["event_counts"]["machine_collision"] == 1
@@ -73,9 +71,8 @@ def test_the_same_program_with_the_head_raised_10_mm_is_clean(tmp_path: Path) ->
     data = _verify(tmp_path, _program(tmp_path, HIGH))
     assert data["event_counts"]["machine_collision"] == 0
     summary = data["programs"][0]
-    # the yoke now passes below the holder; the tool's shank is its nearest (3.85 mm)
-    assert summary["machine_clearance_pair"] == ["yoke_plate", "tool"]
-    assert 2.0 < summary["machine_clearance_mm"] < 5.0
+    # the platter's rim now passes more than the 2 mm clearance below the shank
+    assert summary["machine_clearance_mm"] > 2.0
     left_out = {tuple(p[:2]) for p in data["machine_model"]["pairs_left_out"]}
     assert ("rotary_table", "rotary_base") in left_out
 
@@ -182,22 +179,22 @@ def test_a_pair_left_out_needs_a_reason() -> None:
 
 
 def test_an_stl_component_is_checked(tmp_path: Path) -> None:
-    """An STL yoke plate behaves like the box it replaces (same solid, as a mesh)."""
+    """An STL platter behaves like the cylinder it replaces (same solid, as a mesh)."""
     import trimesh
 
-    plate = trimesh.creation.box(extents=(130.0, 80.0, 10.0))
-    plate.export(tmp_path / "plate.stl")
+    platter = trimesh.creation.cylinder(radius=50.0, height=18.0, sections=64)
+    platter.export(tmp_path / "platter.stl")
     doc = _machine_doc()
-    index = [c["name"] for c in doc["model"]["component"]].index("yoke_plate")
-    doc["model"]["component"][index] = {"name": "yoke_plate", "axis": "A", "shape": "stl",
-                                        "file": "plate.stl", "at": [0.0, 20.0, -20.0]}
+    index = [c["name"] for c in doc["model"]["component"]].index("rotary_table")
+    doc["model"]["component"][index] = {"name": "rotary_table", "axis": "C", "shape": "stl",
+                                        "file": "platter.stl", "at": [0.0, 0.0, -59.0]}
     machine = load_machine(_write_machine(tmp_path, doc))
     kins = kinematics_for(machine)
     scene = machine_scene_for(machine, resolve_tool("ball6"), load_stock(STOCK, 1.0))
     assert scene is not None
     check = check_program(scene, kins, read_nc(_program(tmp_path, LOW)), "tilt")
     assert {tuple(e.details["components"]) for e in check.events} == {
-        ("yoke_plate", "holder")}
+        ("rotary_table", "tool")}
 
 
 # ----------------------------------------------------------------------------- report
