@@ -12,6 +12,10 @@ posture repair (``cam.finishing.repair``) tilts the axis away, open-ended passes
 trimmed, links go another way (``cam.finishing.linking``), and what is still
 blocked is named in finish.json.
 
+Only pairs with a spindle-side solid (spindle, tool, holder) are the planner's:
+moving the tool changes them; two table-side solids (the part against the cradle)
+are the machine's own build, reported by the verifier.
+
 ``margin`` covers the motion between the planner's samples and the verifier's: the
 motion between two postures is checked at joint-linear samples no machine point
 moves more than the model's ``step`` between (as the verifier samples a block), so a
@@ -90,7 +94,8 @@ class MachineObstacle(CollisionScene):
         found = self.queries.get(tool.name)
         if found is None:
             scene = machine_scene(self.model, tool, None, part=self.part)
-            found = self.queries[tool.name] = MachineClearance(scene, self.kins)
+            found = self.queries[tool.name] = MachineClearance(scene, self.kins,
+                                                               tool_side=True)
         return found
 
     @property
@@ -183,7 +188,7 @@ def operation_clearance(obstacle: MachineObstacle, tool: Tool, tip: Array, axis:
 
     The joints are the post's (the inverse kinematics over the whole operation: its
     branches and C winding), sampled joint-linearly as the verifier samples the
-    blocks (``joint_path_samples``).
+    blocks (``joint_path_samples``); every checked pair, as the verifier's.
 
     Parameters
     ----------
@@ -200,7 +205,7 @@ def operation_clearance(obstacle: MachineObstacle, tool: Tool, tip: Array, axis:
     """
     from postproc.kinematics.base import OverTravelError
 
-    query = obstacle.query(tool)
+    query = MachineClearance(obstacle.query(tool).scene, obstacle.kins)  # every pair
     try:
         joints = obstacle.kins.inverse(np.asarray(tip, np.float64), np.asarray(axis, np.float64))
     except OverTravelError as error:

@@ -36,11 +36,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam.verify.machine_check import MachineScene, _distance, _radii
-from postproc.machine_model import Solid, group_poses
+from postproc.machine_model import TOOL_SIDE, Solid, group_poses
 
 __all__ = ["Clearances", "MachineClearance", "joint_path_samples"]
 
 Array = NDArray[np.float64]
+TOOL_SIDE_GROUPS = frozenset(TOOL_SIDE)
 #: Rows whose witness gap is computed at once.
 _GAP_BLOCK = 256
 
@@ -91,6 +92,11 @@ class MachineClearance:
         solids are the verifier's).
     kins : TableTiltingRotary
         The machine's kinematics.
+    tool_side : bool
+        Only the pairs with a solid on the spindle side (X, Y, Z groups: spindle,
+        tool, holder): what moving the tool can change. Pairs of two table-side
+        solids (the part or the platter against the cradle) are the machine's own
+        build; the verifier reports them.
 
     Attributes
     ----------
@@ -102,10 +108,11 @@ class MachineClearance:
         Process time spent in the queries, s.
     """
 
-    def __init__(self, scene: MachineScene, kins: Any) -> None:
+    def __init__(self, scene: MachineScene, kins: Any, tool_side: bool = False) -> None:
         self.scene = scene
         self.kins = kins
-        self.pairs = list(scene.pairs)
+        self.pairs = [p for p in scene.pairs if not tool_side
+                      or TOOL_SIDE_GROUPS & {scene.solids[p[0]].group, scene.solids[p[1]].group}]
         self.clearance = np.array([c for _, _, c in self.pairs], dtype=np.float64)
         self.names = [(scene.solids[i].name, scene.solids[j].name) for i, j, _ in self.pairs]
         self.radius = np.array([s.radius for s in scene.solids])
