@@ -119,6 +119,9 @@ class MachineClearance:
         self.centre = np.array([s.centre for s in scene.solids])
         self.rho = _radii(scene, kins)
         self.support = [_hull_vertices(s) for s in scene.solids]
+        self._first = np.array([i for i, _, _ in self.pairs], dtype=np.intp)
+        self._second = np.array([j for _, j, _ in self.pairs], dtype=np.intp)
+        self._reach = self.radius[self._first] + self.radius[self._second]
         self.witness: dict[int, Array] = {}  # pair -> direction in solid i's group frame
         self.queries = 0
         self.poses = 0
@@ -140,9 +143,16 @@ class MachineClearance:
         if n and p:
             poses = group_poses(self.kins, joints, self.scene.gauge, self.scene.tilt)
             centres = self._centres(poses)
-            moved = self._motion(joints, centres)
-            for k in range(p):
-                distance[:, k], exact[:, k] = self._pair(poses, centres, moved, k, cap)
+            # every pair's bounding-sphere bound at once; only pairs below the limit
+            # somewhere go on to the witness gaps, fcl and the advancement
+            bound = np.linalg.norm(centres[:, self._first] - centres[:, self._second],
+                                   axis=2) - self._reach
+            distance[:] = np.maximum(bound, 0.0)
+            close = np.flatnonzero((bound < (self.clearance + cap)[None, :]).any(axis=0))
+            if close.size:
+                moved = self._motion(joints, centres)
+                for k in close.tolist():
+                    distance[:, k], exact[:, k] = self._pair(poses, centres, moved, k, cap)
         self.poses += n
         self.seconds += time.process_time() - started
         return Clearances(distance, exact, self.clearance, self.names)
