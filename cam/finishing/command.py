@@ -36,6 +36,7 @@ from cam.collision import CollisionScene
 from cam.finishing.edge_plan import plan_edges
 from cam.finishing.fillet_plan import check_fillet_tool, plan_fillet
 from cam.finishing.linking import Envelope, Linker, LinkRules
+from cam.finishing.machine_obstacle import MachineObstacle, operation_clearance
 from cam.finishing.options import FinishOptions
 from cam.finishing.order import ordered_passes
 from cam.finishing.plan import FinishResult, plan_finishing
@@ -66,6 +67,9 @@ __all__ = ["SCENE_SOURCES", "finish_toolpaths", "run_finish"]
 SCENE_SOURCES = ("solid", "surfaces")
 #: Grid spacing of the closed-form collision meshes (``scene="surfaces"``), mm.
 SURFACE_MESH_SPACING = 1.0
+#: Ray spacing of the spec's blank when it stands for the part in the machine check, mm
+#: (coarser casts give a larger solid of revolution: on the safe side).
+BLANK_PITCH = 1.0
 #: Paper figures quoted next to ours in finish.json.
 PAPER = {"junction_cc_points": 475, "paths": 26, "reversals_after": 0}
 
@@ -183,11 +187,44 @@ def _engagement(scene: StockScene, result: FinishResult, entries: list[dict[str,
             "paths_blocked_by_stock": blocked_paths}
 
 
+def _machine_obstacle(model: Any, kins: Kinematics, scene: CollisionScene,
+                      the_stock: Stock | None, spec: str | Path) -> MachineObstacle:
+    """The scene with the machine model as an obstacle; the part's solid from the
+    in-process stock, else from the spec's blank (cast at ``BLANK_PITCH``)."""
+    from cam.verify.machine_check import part_solid
+    from cam.verify.sources import load_stock
+
+    source = the_stock if the_stock is not None else load_stock(str(spec), BLANK_PITCH)
+    return MachineObstacle(scene, model, kins, part_solid(source))
+
+
+def _machine_entry(obstacle: MachineObstacle, result: FinishResult,
+                   entries: list[dict[str, Any]],
+                   toolpaths: dict[str, tuple[Toolpath, np.ndarray, list[dict[str, Any]]]],
+                   tools: dict[str, Tool]) -> dict[str, Any]:
+    """Per path ``machine_blocked_points`` in ``entries``; finish.json's ``machine``."""
+    blocked_paths = []
+    for entry, path in zip(entries, result.paths, strict=True):
+        tool = tools.get(path.path.operation, result.tool)
+        margin = obstacle.posture_margin(tool, path.tip, path.axis)
+        blocked = np.flatnonzero(margin < obstacle.margin)
+        entry["machine_blocked_points"] = blocked.tolist()
+        if blocked.size:
+            blocked_paths.append(path.path.name)
+    operations = {op: operation_clearance(obstacle, tools[op], tp.tip, tp.axis)
+                  for op, (tp, _, _) in toolpaths.items()}
+    stats = obstacle.stats
+    return {"margin_mm": obstacle.margin, "step_mm": obstacle.model.step,
+            "paths_blocked": blocked_paths, "operations": operations,
+            "poses_checked": int(stats["poses"]),
+            "distance_queries": int(stats["distance_queries"])}
+
+
 def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
                options: FinishOptions | None = None,
                library: str | Path | None = None, scene: str = "solid", plots: bool = True,
                progress: bool | None = None, fillet_tool: str | None = None,
-               stock: str | Path | None = None,
+               stock: str | Path | None = None, machine_obstacle: bool = True,
                **fields: Any) -> dict[str, Any]:
     """Five-axis finishing of an impeller: APT per operation, finish.json, plots.
 
@@ -221,6 +258,10 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         verify --stock`` takes: a spec's blank, a closed mesh): shank and holder
         keep ``stock_clearance_mm`` from its material beyond ``clearance_mm -
         stock_clearance_mm`` from the design (``scene="solid"`` only).
+    machine_obstacle : bool
+        With a machine file that has a ``[model]``: every posture, motion and link is
+        also checked against the machine's components (``cam.finishing.
+        machine_obstacle``; the part's solid from ``stock``, else the spec's blank).
     **fields
         Fields of ``FinishOptions`` (mm, deg) replacing those of ``options``, checked
         like a ``[machining.finish]`` table (unknown names refused).
@@ -249,7 +290,8 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
     if the_tool.shape != "ball":
         raise InputError("five-axis finishing needs a ball-end mill", field="-t",
                          value=the_tool.name, accepted="a tool of type 'ball'")
-    kins = kinematics_for(load_machine(machine))
+    the_machine = load_machine(machine)
+    kins = kinematics_for(the_machine)
     the_spec = load_spec(spec)
     fillet = None if fillet_tool is None else resolve_tool(fillet_tool, library)
     if fillet is not None:
@@ -275,6 +317,11 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
     collision = CollisionScene(meshes)
     if the_stock is not None:
         collision = _stock_scene(the_stock, impeller, collision, opts)
+    stock_scene = collision if isinstance(collision, StockScene) else None
+    obstacle = None
+    if machine_obstacle and the_machine.model is not None:
+        collision = obstacle = _machine_obstacle(the_machine.model, kins, collision,
+                                                 the_stock, spec)
     bar = progress_bar(progress)
     with bar if bar is not None else nullcontext():
         task = bar.add_task("finishing", total=None) if bar is not None else None
@@ -303,8 +350,10 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                            for op, (tp, air, _) in toolpaths.items()}
     summary = result.summary()
     entries = summary.pop("path_entries")
-    stock_entry = (_engagement(collision, result, entries)
-                   if isinstance(collision, StockScene) else None)
+    stock_entry = (_engagement(stock_scene, result, entries)
+                   if stock_scene is not None else None)
+    machine_entry = (None if obstacle is None
+                     else _machine_entry(obstacle, result, entries, toolpaths, tools))
     with staged_directory(out) as stage:
         operations = {}
         for op, (toolpath, air, links) in toolpaths.items():
@@ -343,6 +392,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
             "paper": PAPER,
             "summary": summary,
             "link_collisions": int(sum(link_collisions.values())),
+            "machine_model": machine_entry,
             "operations": operations,
             "paths": entries,
         }

@@ -315,8 +315,8 @@ def toolpaths(result: RoughResult) -> list[Toolpath]:
 
 def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
               options: RoughOptions | None = None, library: str | Path | None = None,
-              progress: bool | None = None, check: bool = True, compare: bool = False
-              ) -> dict[str, Any]:
+              progress: bool | None = None, check: bool = True, compare: bool = False,
+              refuse_machine_collisions: bool = False) -> dict[str, Any]:
     """Three-axis UMR roughing of an impeller: APT per UMR and rough.json.
 
     Parameters
@@ -342,6 +342,10 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
         Also plan, time and check the paper's simultaneous five-axis baseline and
         write its Table 1 (``table1.md``; the ``5axis`` entries of rough.json). The
         chain's main job leaves it out: it is a research comparison, not a program.
+    refuse_machine_collisions : bool
+        With a machine ``[model]``: refuse the plan when a posted block brings two
+        machine components closer than their clearance (else rough.json ``machine``
+        reports them; ``cam.roughing.machine_fit``).
 
     Returns
     -------
@@ -465,5 +469,11 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
                                                "segments": int(len(np.unique(path.segment)))})
         if compare:
             write_text_atomic(stage / "table1.md", table1_markdown(document))
+        if check:
+            from cam.roughing.machine_fit import check_machine_fit
+
+            document["machine"] = check_machine_fit(
+                [stage / op["apt"] for op in document["operations"]], machine, the_machine,
+                kins, the_tool, spec, refuse=refuse_machine_collisions)
         write_text_atomic(stage / "rough.json", json.dumps(document, indent=2) + "\n")
     return document

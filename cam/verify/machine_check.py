@@ -41,15 +41,8 @@ from postproc.machine_model import (
 )
 
 __all__ = [
-    "MachineCheck",
-    "MachineScene",
-    "check_program",
-    "machine_scene",
-    "machine_scene_for",
-    "machine_summary",
-    "pose_distance",
-    "render_worst_pose",
-    "scene_summary",
+    "MachineCheck", "MachineScene", "check_program", "machine_scene", "machine_scene_for",
+    "machine_summary", "part_solid", "pose_distance", "render_worst_pose", "scene_summary",
 ]
 
 #: Samples whose poses are computed at once (memory ~ 100 bytes per sample and solid).
@@ -140,7 +133,7 @@ def _part_profile(stock: Any, slab: float = 2.0) -> NDArray[np.float64]:
     return np.asarray(points)
 
 
-def _part_solid(stock: Any, piece_height: float = 10.0) -> Solid:
+def part_solid(stock: Any, piece_height: float = 10.0) -> Solid:
     """The stock's material as a solid of revolution about the C axis (group C).
 
     Distances are taken to convex pieces: the hulls of the profile's rings over
@@ -204,7 +197,8 @@ def _local(solid: Solid) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     return np.eye(3), np.zeros(3)
 
 
-def machine_scene(model: MachineModel, tool: Any, stock: Any) -> MachineScene:
+def machine_scene(model: MachineModel, tool: Any, stock: Any,
+                  part: Solid | None = None) -> MachineScene:
     """The machine's solids with the job's tool, holder, part and fixture.
 
     Parameters
@@ -215,9 +209,11 @@ def machine_scene(model: MachineModel, tool: Any, stock: Any) -> MachineScene:
         without a holder), mm above the tip.
     stock : Stock
         The verifier's stock (its material gives the part's solid of revolution).
+    part : Solid, optional
+        The part's solid already made (``part_solid``; ``stock`` is then not read).
     """
     gauge = float(tool.length)
-    part = _part_solid(stock)
+    part = part_solid(stock) if part is None else part
     solids = [*model.components, *_tool_solids(tool, gauge), part]
     if model.fixture is not None:
         bottom, top = float(part.vertices[:, 2].min()), float(part.vertices[:, 2].max())
@@ -333,8 +329,10 @@ def _scan_pair(
     return hits
 
 
-def _distance(scene: MachineScene, poses: dict[str, Any], i: int, j: int, s: int) -> float:
-    """fcl distance of solids ``i`` and ``j`` at sample ``s`` of ``poses`` (0: overlap)."""
+def _distance(scene: MachineScene, poses: dict[str, Any], i: int, j: int, s: int,
+              witness: list[Any] | None = None) -> float:
+    """fcl distance of solids ``i`` and ``j`` at sample ``s`` of ``poses`` (0: overlap);
+    ``witness`` gets the nearest points (machine frame) of the closest pieces."""
     for k in (i, j):
         solid = scene.solids[k]
         rot, trans = poses[solid.group][0][s], poses[solid.group][1][s]
@@ -346,8 +344,11 @@ def _distance(scene: MachineScene, poses: dict[str, Any], i: int, j: int, s: int
     value = math.inf
     for first in scene.objects[i]:
         for second in scene.objects[j]:
-            value = min(value, float(fcl.distance(first, second, request,
-                                                  fcl.DistanceResult())))
+            result = fcl.DistanceResult()
+            found = float(fcl.distance(first, second, request, result))
+            if found < value and witness is not None:
+                witness[:] = list(result.nearest_points)
+            value = min(value, found)
     return max(value, 0.0)
 
 

@@ -28,14 +28,16 @@ MACHINES = ROOT / "fixtures" / "machines"
 XYZAC = MACHINES / "xyzac-trt.toml"
 STOCK = "cylinder:40,20"
 
-#: The head parked over the table's edge, the table tilted up to A = -100 under it:
-#: the platter's rim comes 0.59 mm below the spindle nose at the end of line 3.
+#: The spindle parked beyond the platter (Y80), the table tilted up to A = +50 under
+#: it: the platter's rim comes 0.17 mm from the tool's shank during line 3.
 TILT_INTO_HEAD = """G21 G90 G94
-G0 X0 Y20 Z{z} A0 C0
-G1 A-100 F1800
+G0 X0 Y80 Z{z} A0 C0
+G1 A50 F1800
 G0 Z120
 M30
 """
+#: Tip heights of the crash and of the same program 10 mm higher, mm.
+LOW, HIGH = -8.0, 2.0
 
 
 def _program(tmp_path: Path, z: float) -> Path:
@@ -52,28 +54,27 @@ def _verify(tmp_path: Path, program: Path) -> dict[str, Any]:
 
 
 def test_table_tilted_into_the_head_is_a_machine_collision(tmp_path: Path) -> None:
-    data = _verify(tmp_path, _program(tmp_path, 29.5))
+    data = _verify(tmp_path, _program(tmp_path, LOW))
     found = [e for e in data["events"] if e["type"] == "machine_collision"]
     assert found, "the tilt into the head must be found"
     assert {e["line"] for e in found} == {3}
-    assert {tuple(e["components"]) for e in found} == {("spindle_nose", "rotary_table")}
+    assert {tuple(e["components"]) for e in found} == {("rotary_table", "tool")}
     assert 0.0 <= found[0]["distance_mm"] < found[0]["clearance_mm"] == 2.0
     summary = data["programs"][0]
-    assert summary["machine_clearance_pair"] == ["spindle_nose", "rotary_table"]
+    assert summary["machine_clearance_pair"] == ["rotary_table", "tool"]
     assert summary["machine_clearance_line"] == 3
     assert summary["machine_clearance_mm"] == pytest.approx(found[0]["distance_mm"], abs=1e-3)
     assert data["event_counts"]["machine_collision"] == 1
 
 
 def test_the_same_program_with_the_head_raised_10_mm_is_clean(tmp_path: Path) -> None:
-    data = _verify(tmp_path, _program(tmp_path, 39.5))
+    data = _verify(tmp_path, _program(tmp_path, HIGH))
     assert data["event_counts"]["machine_collision"] == 0
     summary = data["programs"][0]
-    # the nose now stays 10.7 mm above the rim: the clearance moved up by the 10 mm
-    assert summary["machine_clearance_pair"] == ["spindle_nose", "rotary_table"]
-    assert 10.0 < summary["machine_clearance_mm"] < 11.5
+    # the platter's rim now passes more than the 2 mm clearance below the shank
+    assert summary["machine_clearance_mm"] > 2.0
     left_out = {tuple(p[:2]) for p in data["machine_model"]["pairs_left_out"]}
-    assert ("rotary_table", "cradle_floor") in left_out
+    assert ("rotary_table", "rotary_base") in left_out
 
 
 @pytest.fixture(scope="module")
@@ -128,7 +129,7 @@ def _write_machine(tmp_path: Path, doc: dict[str, Any]) -> Path:
 
 
 def _run_verify_cli(tmp_path: Path, machine: Path, capsys: pytest.CaptureFixture[str]) -> str:
-    program = _program(tmp_path, 39.5)
+    program = _program(tmp_path, HIGH)
     out = tmp_path / "out"
     code = main(["verify", str(program), "-m", str(machine), "-t", "ball6",
                  "--stock", STOCK, "-o", str(out), "--resolution", "1.0"])
@@ -148,7 +149,7 @@ def test_a_component_on_a_missing_axis_exits_2(tmp_path: Path,
 
 def test_a_negative_size_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     doc = _machine_doc()
-    doc["model"]["component"][1]["size"] = [140.0, -200.0, 220.0]
+    doc["model"]["component"][2]["size"] = [60.0, -270.0, 75.0]
     err = _run_verify_cli(tmp_path, _write_machine(tmp_path, doc), capsys)
     assert "machine.toml" in err and "spindle_head" in err
     assert "every box size must be > 0 mm" in err
@@ -157,16 +158,16 @@ def test_a_negative_size_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[s
 def test_an_unreadable_stl_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     doc = _machine_doc()
     (tmp_path / "head.stl").write_bytes(b"solid broken\n facet normal what\n")
-    doc["model"]["component"][1] = {"name": "spindle_head", "axis": "Z", "shape": "stl",
+    doc["model"]["component"][2] = {"name": "spindle_head", "axis": "Z", "shape": "stl",
                                     "file": "head.stl"}
     err = _run_verify_cli(tmp_path, _write_machine(tmp_path, doc), capsys)
-    assert "model.component[1] 'spindle_head'.file" in err and "head.stl" in err
+    assert "model.component[2] 'spindle_head'.file" in err and "head.stl" in err
 
 
 def test_a_pair_naming_an_unknown_component_is_refused() -> None:
     doc = _machine_doc()
-    doc["model"]["pair"][0]["b"] = "cradle_flor"
-    with pytest.raises(InputError, match="did you mean 'cradle_floor'"):
+    doc["model"]["pair"][0]["b"] = "rotary_tabel"
+    with pytest.raises(InputError, match="did you mean 'rotary_table'"):
         machine_from_dict(doc, "machine.toml")
 
 
@@ -178,21 +179,22 @@ def test_a_pair_left_out_needs_a_reason() -> None:
 
 
 def test_an_stl_component_is_checked(tmp_path: Path) -> None:
-    """An STL head behaves like the cylinder it replaces (same solid, as a mesh)."""
+    """An STL platter behaves like the cylinder it replaces (same solid, as a mesh)."""
     import trimesh
 
-    head = trimesh.creation.cylinder(radius=40.0, height=60.0, sections=64)
-    head.export(tmp_path / "nose.stl")
+    platter = trimesh.creation.cylinder(radius=50.0, height=18.0, sections=64)
+    platter.export(tmp_path / "platter.stl")
     doc = _machine_doc()
-    doc["model"]["component"][0] = {"name": "spindle_nose", "axis": "Z", "shape": "stl",
-                                    "file": "nose.stl", "at": [0.0, 0.0, 30.0]}
+    index = [c["name"] for c in doc["model"]["component"]].index("rotary_table")
+    doc["model"]["component"][index] = {"name": "rotary_table", "axis": "C", "shape": "stl",
+                                        "file": "platter.stl", "at": [0.0, 0.0, -59.0]}
     machine = load_machine(_write_machine(tmp_path, doc))
     kins = kinematics_for(machine)
     scene = machine_scene_for(machine, resolve_tool("ball6"), load_stock(STOCK, 1.0))
     assert scene is not None
-    check = check_program(scene, kins, read_nc(_program(tmp_path, 29.5)), "tilt")
+    check = check_program(scene, kins, read_nc(_program(tmp_path, LOW)), "tilt")
     assert {tuple(e.details["components"]) for e in check.events} == {
-        ("spindle_nose", "rotary_table")}
+        ("rotary_table", "tool")}
 
 
 # ----------------------------------------------------------------------------- report

@@ -1,0 +1,223 @@
+"""The machine model as an obstacle of the finishing planner (issue 29).
+
+``MachineObstacle`` is a ``CollisionScene`` to the planner, built around the part's
+scene (the design, or the design with the in-process stock): every posture and
+motion it is asked about is checked as before and, in addition, against the machine
+file's ``[model]`` with the verifier's solids (``cam.verify.machine_query``): a
+posture where some checked pair of the machine (spindle head and rotary table,
+spindle nose and the part, ...) comes closer than the pair's clearance plus
+``margin`` collides, with the scene role ``MACHINE_ROLE``. So the planner's own
+machinery handles it like a shank or holder collision: the eq. 7 remedy turns C, the
+posture repair (``cam.finishing.repair``) tilts the axis away, open-ended passes are
+trimmed, links go another way (``cam.finishing.linking``), and what is still
+blocked is named in finish.json.
+
+Only pairs with a spindle-side solid (spindle, tool, holder) are the planner's:
+moving the tool changes them; two table-side solids (the part against the cradle)
+are the machine's own build, reported by the verifier.
+
+``margin`` covers the motion between the planner's samples and the verifier's: the
+motion between two postures is checked at joint-linear samples no machine point
+moves more than the model's ``step`` between (as the verifier samples a block), so a
+pair between two samples is at most ``step / 2`` closer than at the nearer one; the
+default margin is ``step / 2``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cam.collision import PART_NAMES, CollisionScene
+from cam.collision.scene import PostureReport
+from cam.verify.machine_check import machine_scene
+from cam.verify.machine_query import MachineClearance, joint_path_samples
+
+if TYPE_CHECKING:
+    from cam.tools import Tool
+    from postproc.machine_model import MachineModel, Solid
+
+__all__ = ["MACHINE_ROLE", "MachineObstacle", "operation_clearance"]
+
+#: Scene role of a machine collision in posture reports.
+MACHINE_ROLE = "machine"
+#: Part index reported for a machine collision (the holder's: the spindle side).
+_MACHINE_PART = 2
+
+Array = NDArray[np.float64]
+
+
+class MachineObstacle(CollisionScene):
+    """The part's scene and the machine model as one (module docstring).
+
+    It does not run ``CollisionScene.__init__``; every attribute it does not define
+    is the wrapped scene's.
+
+    Parameters
+    ----------
+    inner : CollisionScene
+        The part's scene (design, or ``StockScene``).
+    model : MachineModel
+        The machine file's ``[model]``.
+    kins : TableTiltingRotary
+        The machine's kinematics.
+    part : Solid
+        The part's solid as the verifier builds it (``machine_check.part_solid``).
+    margin : float, optional
+        Extra distance kept beyond every pair's clearance, mm (default ``step / 2``).
+    """
+
+    def __init__(self, inner: CollisionScene, model: MachineModel, kins: Any, part: Solid,
+                 margin: float | None = None) -> None:
+        self.inner = inner
+        self.model = model
+        self.kins = kins
+        self.part = part
+        self.margin = 0.5 * model.step if margin is None else float(margin)
+        self.queries: dict[str, MachineClearance] = {}
+
+    def __getattr__(self, name: str) -> Any:
+        if name == "inner":  # not set yet: no recursion
+            raise AttributeError(name)
+        return getattr(self.inner, name)
+
+    def tool_model(self, tool: Tool, cutter_offset: float = 0.0) -> Any:
+        """The wrapped scene's (cached) tool model."""
+        return self.inner.tool_model(tool, cutter_offset)
+
+    def query(self, tool: Tool) -> MachineClearance:
+        """The clearance query of ``tool`` (cached per tool name)."""
+        found = self.queries.get(tool.name)
+        if found is None:
+            scene = machine_scene(self.model, tool, None, part=self.part)
+            found = self.queries[tool.name] = MachineClearance(scene, self.kins,
+                                                               tool_side=True)
+        return found
+
+    @property
+    def stats(self) -> dict[str, float]:
+        """Poses asked, fcl queries, process seconds of the machine queries (all tools)."""
+        queries = list(self.queries.values())
+        return {"poses": sum(q.poses for q in queries),
+                "distance_queries": sum(q.queries for q in queries),
+                "seconds": sum(q.seconds for q in queries)}
+
+    # -- checks ------------------------------------------------------------------------
+
+    def posture_margin(self, tool: Tool, tip: ArrayLike, axis: ArrayLike) -> Array:
+        """Smallest ``distance - clearance`` of the machine's pairs per posture, mm."""
+        margin, _ = self.query(tool).postures_margin(
+            np.asarray(tip, np.float64), np.asarray(axis, np.float64), cap=self.margin)
+        return margin
+
+    def motion_margin(self, tool: Tool, tip: ArrayLike, axis: ArrayLike) -> Array:
+        """Smallest margin per motion segment ``i -> i + 1`` (joint-linear samples, both
+        inverse branches inside the tilt limits), mm ``(n - 1,)``."""
+        tip = np.asarray(tip, np.float64).reshape(-1, 3)
+        axis = np.asarray(axis, np.float64).reshape(-1, 3)
+        query = self.query(tool)
+        n = len(tip)
+        out = np.full(max(n - 1, 0), math.inf)
+        if n < 2 or not query.pairs:
+            return out
+        lower, upper = self.kins.machine.limits()
+        for branch in self.kins.inverse_branches(tip, axis):
+            joints = branch.copy()
+            joints[:, 4] = np.unwrap(joints[:, 4])
+            inside = (joints[:, 3] >= lower[3] - 1e-9) & (joints[:, 3] <= upper[3] + 1e-9)
+            usable = inside[:-1] & inside[1:]
+            if not usable.any():
+                continue
+            samples, starts = joint_path_samples(joints, self.model.step, query.rho,
+                                                 with_starts=True)
+            margin = query.query(samples, cap=self.margin).margin
+            seg = np.minimum(np.minimum.reduceat(margin, starts[:-1]), margin[starts[1:]])
+            out = np.where(usable, np.minimum(out, seg), out)
+        return out
+
+    def _combine(self, report: PostureReport, blocked: NDArray[np.bool_]) -> PostureReport:
+        if not blocked.any():
+            return report
+        own = np.asarray(report.collides, dtype=bool)
+        collides = own | blocked
+        part = np.where(own, report.part, np.where(blocked, _MACHINE_PART, -1)).astype(np.int8)
+        roles = [r if c else (MACHINE_ROLE if b else None)
+                 for r, c, b in zip(report.hit_role, own, blocked, strict=True)]
+        checks = dict(report.checks, machine_blocked=int(blocked.sum()))
+        return PostureReport(collides, part, roles, report.clearance, report.bound, checks)
+
+    def check_postures(self, tool: Tool, tip: ArrayLike, axis: ArrayLike, *,
+                       parts: Collection[str] = PART_NAMES,
+                       cutter_allowance: float = 0.0,
+                       cutter_roles: Collection[str] | None = None, clearance: bool = True,
+                       clearance_cap: float = math.inf,
+                       clearance_limits: Sequence[float] = ()) -> PostureReport:
+        """``CollisionScene.check_postures``; machine pairs within their clearance plus
+        ``margin`` collide (role ``MACHINE_ROLE``)."""
+        report = self.inner.check_postures(
+            tool, tip, axis, parts=parts, cutter_allowance=cutter_allowance,
+            cutter_roles=cutter_roles, clearance=clearance, clearance_cap=clearance_cap,
+            clearance_limits=clearance_limits)
+        return self._combine(report, self.posture_margin(tool, tip, axis) < self.margin)
+
+    def check_motion(self, tool: Tool, tip: ArrayLike, axis: ArrayLike, *,
+                     max_step_mm: float, max_step_deg: float,
+                     parts: Collection[str] = PART_NAMES,
+                     cutter_allowance: float = 0.0,
+                     cutter_roles: Collection[str] | None = None, clearance: bool = True,
+                     clearance_cap: float = math.inf,
+                     clearance_limits: Sequence[float] = (),
+                     ends: PostureReport | None = None) -> PostureReport:
+        """``CollisionScene.check_motion``; a segment along which a machine pair comes
+        within its clearance plus ``margin`` collides (role ``MACHINE_ROLE``)."""
+        report = self.inner.check_motion(
+            tool, tip, axis, max_step_mm=max_step_mm, max_step_deg=max_step_deg,
+            parts=parts, cutter_allowance=cutter_allowance, cutter_roles=cutter_roles,
+            clearance=clearance, clearance_cap=clearance_cap,
+            clearance_limits=clearance_limits, ends=ends)
+        return self._combine(report, self.motion_margin(tool, tip, axis) < self.margin)
+
+
+def operation_clearance(obstacle: MachineObstacle, tool: Tool, tip: Array, axis: Array
+                        ) -> dict[str, Any]:
+    """finish.json's machine entry of one operation, as the post will move it.
+
+    The joints are the post's (the inverse kinematics over the whole operation: its
+    branches and C winding), sampled joint-linearly as the verifier samples the
+    blocks (``joint_path_samples``); every checked pair, as the verifier's.
+
+    Parameters
+    ----------
+    tip, axis : (n, 3) float64
+        The operation's poses in W (cuts, departures, links, approaches).
+
+    Returns
+    -------
+    dict
+        ``machine_clearance_mm`` (smallest distance of any checked pair),
+        ``machine_clearance_pair``, ``machine_clearance_pose`` (index of the pose the
+        move to which holds it), ``machine_collision_moves`` (moves along which a pair
+        comes closer than its clearance: 0 when planning and verification agree).
+    """
+    from postproc.kinematics.base import OverTravelError
+
+    query = MachineClearance(obstacle.query(tool).scene, obstacle.kins)  # every pair
+    try:
+        joints = obstacle.kins.inverse(np.asarray(tip, np.float64), np.asarray(axis, np.float64))
+    except OverTravelError as error:
+        return {"machine_clearance_mm": None, "note": f"not reachable: {error}"}
+    samples, starts = joint_path_samples(joints, obstacle.model.step, query.rho,
+                                         with_starts=True)
+    smallest, pair, row = query.smallest(samples)
+    if not math.isfinite(smallest):
+        return {"machine_clearance_mm": None}
+    below = query.query(samples).margin < 0.0
+    move = np.searchsorted(starts, np.flatnonzero(below), side="left")
+    return {"machine_clearance_mm": round(smallest, 3),
+            "machine_clearance_pair": list(pair),
+            "machine_clearance_pose": int(np.searchsorted(starts, row, side="left")),
+            "machine_collision_moves": int(len(np.unique(move)))}

@@ -1,0 +1,195 @@
+"""The machine model as an obstacle of the planners (issue 29, planning side)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import trimesh
+
+from cam.collision import CollisionScene
+from cam.finishing.interference import check_path
+from cam.finishing.machine_obstacle import MACHINE_ROLE, MachineObstacle
+from cam.finishing.options import FinishOptions
+from cam.finishing.repair import PostureRules, repair_postures
+from cam.tools import resolve_tool
+from cam.verify.machine_check import check_program, machine_scene, part_solid, pose_distance
+from cam.verify.machine_query import MachineClearance, joint_path_samples
+from cam.verify.sources import load_stock
+from postproc.kinematics import kinematics_for
+from postproc.machine import load_machine
+from postproc.nc_reader import read_nc
+
+ROOT = Path(__file__).resolve().parents[2]
+TRUNNION = ROOT / "fixtures" / "machines" / "trunnion-500.toml"
+NINE_BLADE = ROOT / "fixtures" / "impellers" / "nine_blade" / "spec.toml"
+SHORT_TOOL = resolve_tool("ball4_taper")  # gauge line 125 mm above the tip
+
+#: Fillet poses of the main job on trunnion-500 (X Y Z mm, A C deg) where the
+#: spindle head came within ~2.5 mm of the rotary table with the short ball4_taper
+#: (the pair's clearance is 3 mm): the table tilted 87-88 deg under the head.
+_NC = np.array([
+    [23.8464, -22.4215, 70.5566, -87.4607, -39.5349],
+    [23.0667, -23.2145, 71.2313, -87.7896, -40.9164],
+    [22.2636, -24.0168, 71.8713, -88.1185, -42.2978],
+])
+#: ... three NC lines (447-449 of finish_fillet.ngc) and the poses half-way between
+CLOSE = np.array([_NC[0], 0.5 * (_NC[0] + _NC[1]), _NC[1], 0.5 * (_NC[1] + _NC[2]),
+                  _NC[2]])
+
+
+def _joints(rows: np.ndarray) -> np.ndarray:
+    out = np.asarray(rows, dtype=np.float64).copy()
+    out[:, 3:] = np.radians(out[:, 3:])
+    return out
+
+
+@pytest.fixture(scope="module")
+def trunnion() -> dict[str, Any]:
+    machine = load_machine(TRUNNION)
+    kins = kinematics_for(machine)
+    part = part_solid(load_stock(str(NINE_BLADE), 1.0))
+    assert machine.model is not None
+    scene = machine_scene(machine.model, SHORT_TOOL, None, part=part)
+    return {"machine": machine, "kins": kins, "part": part, "scene": scene}
+
+
+def test_the_query_gives_the_verifiers_distances(trunnion: dict[str, Any]) -> None:
+    """Exact distances are pose_distance's to 1e-6 mm; the others are lower bounds
+    at or above the pair's clearance."""
+    scene, kins = trunnion["scene"], trunnion["kins"]
+    rng = np.random.default_rng(29)
+    poses = np.vstack([_joints(CLOSE), np.column_stack([
+        rng.uniform(-60, 60, 25), rng.uniform(-40, 40, 25), rng.uniform(40, 120, 25),
+        np.radians(rng.uniform(-100, 0, 25)), np.radians(rng.uniform(-180, 180, 25))])])
+    query = MachineClearance(scene, kins)
+    every = query.query(poses, cap=math.inf)
+    assert every.exact.all()
+    cheap = query.query(poses)
+    for row, joints in enumerate(poses):
+        for k, (i, j, clearance) in enumerate(scene.pairs):
+            true = pose_distance(scene, kins, i, j, joints)
+            assert every.distance[row, k] == pytest.approx(true, abs=1e-6)
+            if cheap.exact[row, k]:
+                assert cheap.distance[row, k] == pytest.approx(true, abs=1e-6)
+            else:
+                assert clearance <= cheap.distance[row, k] <= true + 1e-9
+    head_table = query.names.index(("spindle_head", "rotary_table"))
+    close = every.distance[:len(CLOSE), head_table]
+    assert np.all((close > 1.5) & (close < 3.0))  # below the 3 mm clearance
+    assert np.all(every.margin[:len(CLOSE)] < 0.0)
+
+
+def test_smallest_over_a_sampled_path_is_the_brute_force_minimum(
+        trunnion: dict[str, Any]) -> None:
+    scene, kins = trunnion["scene"], trunnion["kins"]
+    query = MachineClearance(scene, kins)
+    samples = joint_path_samples(_joints(CLOSE), scene.step, query.rho)
+    distance, pair, row = query.smallest(samples)
+    brute = min((pose_distance(scene, kins, i, j, q), r)
+                for r, q in enumerate(samples) for i, j, _ in scene.pairs)
+    assert distance == pytest.approx(brute[0], abs=1e-6)
+    assert row == brute[1]
+    assert pair == ("spindle_head", "rotary_table")
+    assert query.queries < len(samples) * len(scene.pairs) / 4  # most pairs skipped
+
+
+def _program(tmp_path: Path, rows: np.ndarray) -> Path:
+    lines = ["G21 G90 G94", "G0 Z375", "G0 A{:.4f} C{:.4f}".format(*rows[0, 3:])]
+    lines += ["G1 X{:.4f} Y{:.4f} Z{:.4f} A{:.4f} C{:.4f} F1000".format(*r) for r in rows]
+    lines += ["G0 Z375", "M30"]
+    path = tmp_path / "close.ngc"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _far_scene() -> CollisionScene:
+    """A part scene the tool never meets (the test is about the machine alone)."""
+    box = trimesh.creation.box((1.0, 1.0, 1.0))
+    box.apply_translation((0.0, 0.0, -2000.0))
+    return CollisionScene({"hub": box})
+
+
+def test_a_machine_collision_is_repaired_or_named(tmp_path: Path,
+                                                  trunnion: dict[str, Any]) -> None:
+    """Postures the verifier flags as machine_collision collide in the planner's scene
+    (role "machine"); the posture repair tilts them clear of the machine, and the
+    verifier then finds no machine_collision on the repaired postures."""
+    kins, machine = trunnion["kins"], trunnion["machine"]
+    flagged = check_program(trunnion["scene"], kins, read_nc(_program(tmp_path, CLOSE),
+                                                             machine=machine), "close.ngc")
+    assert {tuple(e.details["components"]) for e in flagged.events} == {
+        ("spindle_head", "rotary_table")}
+
+    obstacle = MachineObstacle(_far_scene(), machine.model, kins, trunnion["part"])
+    tip, axis = kins.forward(_joints(CLOSE))
+    options = FinishOptions(clearance_mm=0.5)
+    report = obstacle.check_postures(SHORT_TOOL, tip, axis)
+    assert report.collides.all() and set(report.hit_role) == {MACHINE_ROLE}
+
+    inter = check_path(obstacle, SHORT_TOOL, tip, axis, options)
+    assert inter.smaller_tool_needed
+    centre = tip + SHORT_TOOL.radius * axis
+    tangent = np.gradient(centre, axis=0)
+    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
+    normal = np.cross(tangent, axis)  # the contact normal across the axis: 90 deg away
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    rules = PostureRules(centre, normal, tangent, normal, hub_contact=False)
+    joints = kins.inverse(tip, axis)
+    repaired = repair_postures(obstacle, SHORT_TOOL, kins, rules, inter, joints, options)
+    fixed = np.setdiff1d(np.arange(len(tip)), repaired.unresolved)
+    assert fixed.size, "the repair must tilt some posture clear of the machine"
+    margin = obstacle.posture_margin(SHORT_TOOL, repaired.interference.tip,
+                                     repaired.interference.axis)
+    assert np.all(margin[fixed] >= obstacle.margin)
+    if not repaired.unresolved.size:  # every posture clear: so says the verifier
+        rows = repaired.joints.copy()
+        rows[:, 3:] = np.degrees(rows[:, 3:])
+        again = check_program(trunnion["scene"], kins,
+                              read_nc(_program(tmp_path, rows), machine=machine), "fixed")
+        assert not again.events
+        assert again.smallest >= 3.0
+
+
+def _umr_apt(tmp_path: Path, kins: Any, tool: Any) -> Path:
+    """One 3+2-like UMR visit through the close poses, as the roughing writes it."""
+    from postproc.apt import write_apt
+    from postproc.toolpath import Cutter, MoveKind, Toolpath
+
+    tip, axis = kins.forward(_joints(CLOSE))
+    above = tip[0] + 30.0 * axis[0]
+    path = Toolpath(tip=np.vstack([above, tip]), axis=np.vstack([axis[:1], axis]),
+                    feed=np.array([math.nan] + [500.0] * len(tip)),
+                    kind=np.array([MoveKind.RAPID] + [MoveKind.FEED] * len(tip), np.int8),
+                    name="rough_umr7", tool_number=tool.number,
+                    cutter=Cutter(tool.diameter, tool.corner_radius, tool.flute_length))
+    return write_apt(tmp_path / "rough.apt", [path])
+
+
+def test_a_umr_orientation_the_machine_cannot_take_is_refused(
+        tmp_path: Path, trunnion: dict[str, Any]) -> None:
+    """The roughing programs are checked as posted: a UMR visit whose orientation
+    brings the head within the table's clearance is refused (or reported), naming
+    the UMR; with a 20 mm longer tool the same visit passes and rough.json gets its
+    clearance."""
+    from cam.roughing.machine_fit import check_machine_fit
+    from impeller_cam.errors import InputError
+
+    kins, machine = trunnion["kins"], trunnion["machine"]
+    apt = _umr_apt(tmp_path, kins, SHORT_TOOL)
+    with pytest.raises(InputError, match=r"rough_umr7 \(line \d+\): spindle_head and "
+                                         r"rotary_table [12]\.\d\d mm apart, clearance 3\.00"):
+        check_machine_fit([apt], TRUNNION, machine, kins, SHORT_TOOL, NINE_BLADE,
+                          refuse=True)
+    reported = check_machine_fit([apt], TRUNNION, machine, kins, SHORT_TOOL, NINE_BLADE)
+    assert reported is not None and reported["machine_collisions"] > 0
+    assert reported["notes"][0].startswith("rough_umr7 (line ")
+    longer = resolve_tool("ball6_taper")  # gauge line 145 mm above the tip
+    entry = check_machine_fit([apt], TRUNNION, machine, kins, longer, NINE_BLADE,
+                              refuse=True)
+    assert entry is not None and entry["machine_clearance_mm"] >= 3.0
+    assert entry["machine_collisions"] == 0
+    assert entry["machine_clearance_umr"] == "rough_umr7"
