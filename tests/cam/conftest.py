@@ -27,7 +27,7 @@ SMALL_SPEC = ROOT / "fixtures" / "impellers" / "small" / "spec.toml"
 TRUNNION = ROOT / "fixtures" / "machines" / "trunnion-500.toml"
 
 
-def _without_model(machine: Path) -> Path:
+def without_model(machine: Path) -> Path:
     """A copy of a machine file without its ``[model]`` tables (the last ones in the
     file), written once into the temp folder (same bytes from every xdist worker)."""
     import tempfile
@@ -48,7 +48,7 @@ def _without_model(machine: Path) -> Path:
     return copy
 
 
-CHAIN_MACHINE = _without_model(TRUNNION)
+CHAIN_MACHINE = without_model(TRUNNION)
 #: Coarse settings of the chain test: every passage roughed and finished.
 CHAIN_SETTINGS: dict[str, Any] = {
     "rough_tool": "ball6",

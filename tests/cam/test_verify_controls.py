@@ -92,7 +92,8 @@ def test_same_events_at_corresponding_blocks(verified) -> None:  # type: ignore[
         return [e for e in found if e[1] != "machine_collision"], machine_events
 
     reference, reference_machine = split(events(verified["linuxcnc"]))
-    assert reference  # the coarse run reports something to compare
+    # (on the chain's model-less trunnion the small chain may report no stock event:
+    # then every form must report none)
     for key, runs in verified.items():
         stock_events, machine_events = split(events(runs))
         assert stock_events == reference, key
