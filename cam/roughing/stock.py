@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 import trimesh
+from numba import njit
 from numpy.typing import NDArray
 
 from geometry.blank import spec_blank_profile
@@ -29,8 +30,87 @@ from geometry.surfaces import ImpellerSurfaces
 
 __all__ = ["Blank"]
 
-#: Point-edge pairs tested at a time (memory: a few arrays of this many floats).
-PAIRS = 2_000_000
+
+@njit(cache=True, nogil=True)
+def _edge_gap2(qr: float, qz: float, ar: float, az: float, dr: float, dz: float) -> float:
+    """Squared distance of ``(qr, qz)`` to the segment from ``(ar, az)`` along
+    ``(dr, dz)``, mm^2."""
+    dd = max(dr * dr + dz * dz, 1e-300)
+    rr, rz = qr - ar, qz - az
+    t = min(max((rr * dr + rz * dz) / dd, 0.0), 1.0)
+    gr, gz = rr - t * dr, rz - t * dz
+    return gr * gr + gz * gz
+
+
+@njit(cache=True, nogil=True)
+def _inside(qr: float, qz: float, profile: NDArray[np.float64]) -> bool:
+    """Even-odd rule: edges of the closed ``profile`` crossed by the ray from
+    ``(qr, qz)`` towards +r."""
+    crossings = 0
+    for k in range(profile.shape[0] - 1):
+        ar, az = profile[k, 0], profile[k, 1]
+        br, bz = profile[k + 1, 0], profile[k + 1, 1]
+        if (az > qz) != (bz > qz):
+            if ar + (qz - az) * (br - ar) / (bz - az) > qr:
+                crossings += 1
+    return crossings % 2 == 1
+
+
+@njit(cache=True, nogil=True)
+def _profile_distance(points: NDArray[np.float64], profile: NDArray[np.float64]
+                      ) -> NDArray[np.float64]:
+    """Distance ``(n,)`` of points ``(n, 3)`` to the solid of revolution of the closed
+    meridional polygon ``profile`` ``(k, 2)`` (r, z) about +Z, mm (0 inside)."""
+    out = np.empty(points.shape[0])
+    for i in range(points.shape[0]):
+        qr, qz = np.hypot(points[i, 0], points[i, 1]), points[i, 2]
+        if _inside(qr, qz, profile):
+            out[i] = 0.0
+            continue
+        best = np.inf
+        for k in range(profile.shape[0] - 1):
+            g = _edge_gap2(qr, qz, profile[k, 0], profile[k, 1],
+                           profile[k + 1, 0] - profile[k, 0],
+                           profile[k + 1, 1] - profile[k, 1])
+            best = min(best, g)
+        out[i] = np.sqrt(best)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _profile_touches(points: NDArray[np.float64], profile: NDArray[np.float64],
+                     radius: float) -> NDArray[np.bool_]:
+    """``_profile_distance(points) < radius`` (``<= 0`` for ``radius`` 0) without
+    computing every distance: the first edge closer than ``radius`` decides."""
+    out = np.empty(points.shape[0], dtype=np.bool_)
+    rmin, rmax = profile[:, 0].min(), profile[:, 0].max()
+    zmin, zmax = profile[:, 1].min(), profile[:, 1].max()
+    far = max(radius, 0.0) + 1e-9  # a bounding-box gap beyond this decides "no"
+    for i in range(points.shape[0]):
+        qr, qz = np.hypot(points[i, 0], points[i, 1]), points[i, 2]
+        if qr - rmax > far or rmin - qr > far or qz - zmax > far or zmin - qz > far:
+            out[i] = False
+            continue
+        hit = False
+        if radius > 0.0:
+            for k in range(profile.shape[0] - 1):
+                g = _edge_gap2(qr, qz, profile[k, 0], profile[k, 1],
+                               profile[k + 1, 0] - profile[k, 0],
+                               profile[k + 1, 1] - profile[k, 1])
+                if np.sqrt(g) < radius:
+                    hit = True
+                    break
+        if not hit:
+            hit = _inside(qr, qz, profile)
+            if not hit and radius <= 0.0:
+                best = np.inf
+                for k in range(profile.shape[0] - 1):
+                    best = min(best, _edge_gap2(qr, qz, profile[k, 0], profile[k, 1],
+                                                profile[k + 1, 0] - profile[k, 0],
+                                                profile[k + 1, 1] - profile[k, 1]))
+                hit = np.sqrt(best) <= 0.0
+        out[i] = hit
+    return out
 
 
 class Blank:
@@ -54,34 +134,15 @@ class Blank:
 
     def distance(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
         """Distance ``(n,)`` of W points ``(n, 3)`` to the blank, mm (0 inside)."""
-        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        rz = np.column_stack([np.hypot(p[:, 0], p[:, 1]), p[:, 2]])
-        out = np.empty(len(rz))
-        a, b = self.profile[:-1], self.profile[1:]
-        d = b - a
-        dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
-        chunk = max(1, PAIRS // len(a))
-        for lo in range(0, len(rz), chunk):
-            q = rz[lo:lo + chunk]
-            rel = q[:, None, :] - a[None]
-            t = np.clip(np.einsum("nkj,kj->nk", rel, d) / dd, 0.0, 1.0)
-            gap = rel - t[..., None] * d[None]
-            near = np.sqrt(np.einsum("nkj,nkj->nk", gap, gap).min(axis=1))
-            # even-odd rule: edges crossed by the ray from q towards +r
-            straddle = (a[None, :, 1] > q[:, None, 1]) != (b[None, :, 1] > q[:, None, 1])
-            with np.errstate(divide="ignore", invalid="ignore"):
-                cross = a[None, :, 0] + (q[:, None, 1] - a[None, :, 1]) * d[None, :, 0] / d[
-                    None, :, 1]
-            inside = (np.count_nonzero(straddle & (cross > q[:, None, 0]), axis=1) % 2) == 1
-            out[lo:lo + chunk] = np.where(inside, 0.0, near)
-        return out
+        p = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
+        return _profile_distance(p, self.profile)
 
     def touches(self, centres: NDArray[np.float64], radius: float) -> NDArray[np.bool_]:
         """True where a ball of ``radius`` at ``centres`` ``(..., 3)`` meets the blank
         (its centre inside, or within ``radius`` of the boundary)."""
         c = np.asarray(centres, dtype=np.float64)
-        d = self.distance(c.reshape(-1, 3))
-        hit = d < radius if radius > 0.0 else d <= 0.0
+        flat = np.ascontiguousarray(c.reshape(-1, 3))
+        hit = _profile_touches(flat, self.profile, float(radius))
         return np.asarray(hit.reshape(c.shape[:-1]))
 
     def closed_mesh(self, sections: int = 180) -> trimesh.Trimesh:

@@ -71,3 +71,33 @@ def test_same_solid_as_the_verification_stock() -> None:
     low = np.array([profile_top(ri) for ri in r])
     high = np.array([max(profile_top(ri + d) for d in (-probe, 0.0, probe)) for ri in r])
     assert np.all(top >= low - 2e-3) and np.all(top <= high + 2e-3), (top, low, high)
+
+
+def test_touches_is_the_distance_compared_with_the_radius_on_a_real_blank() -> None:
+    """``touches`` (early exits: bounding box, first edge within the radius) answers
+    exactly ``distance < radius`` (``<= 0`` for radius 0), and ``distance`` is the
+    brute-force closest-edge distance outside and 0 inside (seeded points around the
+    nine_blade blank, on its vertices too)."""
+    from geometry.spec import load_spec
+    from geometry.surfaces import build_surfaces
+
+    blank = Blank(build_surfaces(load_spec(ROOT / "fixtures/impellers/nine_blade/spec.toml")))
+    rng = np.random.default_rng(28)
+    lo = np.array([-blank.r_out - 8.0, -blank.r_out - 8.0, blank.profile[:, 1].min() - 8.0])
+    hi = np.array([blank.r_out + 8.0, blank.r_out + 8.0, blank.z_top + 8.0])
+    ang = rng.uniform(0.0, 2.0 * math.pi, len(blank.profile))
+    on = np.column_stack([blank.profile[:, 0] * np.cos(ang), blank.profile[:, 0] * np.sin(ang),
+                          blank.profile[:, 1]])
+    pts = np.vstack([rng.uniform(lo, hi, (4000, 3)), on])
+    d = blank.distance(pts)
+    rz = np.column_stack([np.hypot(pts[:, 0], pts[:, 1]), pts[:, 2]])
+    a, b = blank.profile[:-1], blank.profile[1:]
+    t = np.clip(np.einsum("nkj,kj->nk", rz[:, None] - a[None], b - a)
+                / np.einsum("kj,kj->k", b - a, b - a), 0.0, 1.0)
+    gap = np.linalg.norm(rz[:, None] - a[None] - t[..., None] * (b - a)[None], axis=-1).min(axis=1)
+    outside = d > 0.0
+    assert outside.any() and (~outside).any()
+    assert np.allclose(d[outside], gap[outside], rtol=0.0, atol=1e-9)
+    for radius in (0.0, 0.5, 3.0, 5.0):
+        want = d < radius if radius > 0.0 else d <= 0.0
+        assert np.array_equal(blank.touches(pts, radius), want)
