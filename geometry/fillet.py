@@ -44,7 +44,8 @@ from geometry.surfaces import BladeSurface
 from impeller_cam.errors import InputError
 
 __all__ = ["FilletTrack", "blade_tracks", "fillet_grid", "fold_depth", "fold_profile",
-           "fold_ratio", "loop_spine", "rolling_ball", "section_parameters", "trim_fold"]
+           "fold_ratio", "fold_summary", "loop_spine", "rolling_ball", "section_parameters",
+           "trim_fold"]
 
 Array = NDArray[np.float64]
 _ITERATIONS = 80
@@ -285,9 +286,10 @@ def trim_fold(points: Array, spine: Array, radius: float) -> Array:
 
     A point inside a ball (closer than ``radius - FOLD_TOLERANCE`` to a centre) is
     pushed radially out of the ball of its nearest centre, repeatedly, until it lies
-    in none: a point of a folded envelope's swallowtail lands on the ridge where
-    the outer sheets meet. Points of a regular envelope are at ``radius`` from their
-    own centre and farther from the others: unchanged.
+    in none: a point of a folded envelope's swallowtail lands on the union's
+    boundary (an outer sheet next to the ridge where the sheets meet, for a shallow
+    fold). Points of a regular envelope are at ``radius`` from their own centre and
+    farther from the others: unchanged.
 
     Parameters
     ----------
@@ -319,6 +321,29 @@ def fold_depth(track: FilletTrack, radius: float, spine: Array, n_arc: int = 41)
     grid = fillet_grid(track, radius, n_arc).reshape(-1, 3)
     distance, _ = cKDTree(spine).query(grid)
     return float(max(0.0, radius - float(distance.min())))
+
+
+def fold_summary(tracks: list[FilletTrack], radius: float) -> list[dict[str, float | str]]:
+    """Per outline segment of one blade's loop: where and how much its fillet folds.
+
+    Returns
+    -------
+    list of dict
+        ``role`` of the segment, ``ratio`` (its largest ``fold_profile``), ``p``
+        (the segment parameter there) and ``depth_mm`` (``fold_depth`` against the
+        loop's spine: how far the untrimmed arcs reach into other balls, 0 where
+        nothing folds).
+    """
+    if radius <= 0:
+        return []
+    spine = loop_spine(tracks)
+    out: list[dict[str, float | str]] = []
+    for track in tracks:
+        profile = fold_profile(track, radius)
+        k = int(np.argmax(profile))
+        out.append({"role": track.role, "ratio": float(profile[k]), "p": float(track.p[k]),
+                    "depth_mm": fold_depth(track, radius, spine)})
+    return out
 
 
 def fillet_grid(track: FilletTrack, radius: float, n_arc: int,
