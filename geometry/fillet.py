@@ -14,6 +14,17 @@ of the two normals the cross-section of the fillet is the circular arc of centre
 ``c`` from ``P_b`` to ``P_h`` (:func:`fillet_grid`). With ``r_f = 0`` the same
 solver gives the blade's footprint on the hub (no fillet).
 
+Where the centre line curves more tightly than ``1 / r_f`` (``fold_profile`` >= 1),
+the circular arcs of neighbouring sections cross: the envelope folds into a
+swallowtail whose sheets lie inside other balls of the roll, in the air (nine_blade:
+the suction side's cut trailing-edge corner, where the blade leans 45 deg over the
+hub; ``r_f`` times the curvature 1.35, arc points up to 0.39 mm inside other balls).
+A rolling ball, or a ball-end mill of radius ``r_f`` on the centre line, removes
+them: the real fillet is the boundary of the union of the balls, two sheets meeting
+in a ridge (as a CAD system trims a blend). ``trim_fold`` moves the arc points onto
+that boundary (:func:`fillet_grid` with ``spine``), so the faces never fold; where
+the centre line is gentler nothing moves.
+
 This module is pure numpy; :mod:`geometry.solids` turns the tracks into faces.
 OpenCASCADE's own fillet and booleans are not used.
 """
@@ -24,14 +35,17 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.interpolate import CubicSpline
+from scipy.spatial import cKDTree
 
 from geometry.outline import OutlineSegment
 from geometry.revolved import RevolvedSurface
 from geometry.surfaces import BladeSurface
 from impeller_cam.errors import InputError
 
-__all__ = ["FilletTrack", "blade_tracks", "fillet_grid", "fold_ratio", "rolling_ball",
-           "section_parameters"]
+__all__ = ["FilletTrack", "blade_tracks", "fillet_grid", "fold_depth", "fold_profile",
+           "fold_ratio", "fold_summary", "loop_spine", "rolling_ball", "section_parameters",
+           "trim_fold"]
 
 Array = NDArray[np.float64]
 _ITERATIONS = 80
@@ -39,6 +53,12 @@ _ITERATIONS = 80
 _RESIDUAL = 1e-8
 #: Smallest hub surface (mm along the contour) left between a fillet and a hub edge.
 HUB_MARGIN = 0.1
+#: Centre-line samples per outline segment of the densified spine (``loop_spine``).
+SPINE_SAMPLES = 400
+#: A fillet point farther than this (mm) inside a ball of the roll lies in a fold.
+FOLD_TOLERANCE = 1e-5
+#: Largest number of push-outs of one point in ``trim_fold``.
+_PUSHES = 60
 
 
 def _unit(a: Array) -> Array:
@@ -226,29 +246,116 @@ def blade_tracks(blade: BladeSurface, hub: RevolvedSurface, outline: list[Outlin
     return tracks
 
 
-def fold_ratio(track: FilletTrack, radius: float) -> float:
-    """``r_f`` times the largest curvature of the track's centre line (sections' estimate).
+def fold_profile(track: FilletTrack, radius: float) -> Array:
+    """``(n,)`` ``r_f`` times the curvature of the track's centre line at each section.
 
     The rolling-ball surface (a canal surface) is regular where this is below 1; at
     1 or more its envelope folds (the ball cannot roll round that place without
-    overlapping itself; a ball-end mill would leave a cusp there).
+    overlapping itself; a ball-end mill would leave a ridge there). Finite
+    differences over the sections (second order, ends one-sided).
     """
     if radius <= 0 or len(track.p) < 5:
-        return 0.0
+        return np.zeros(len(track.p))
     d1 = np.gradient(track.centre, track.p, axis=0, edge_order=2)
     d2 = np.gradient(d1, track.p, axis=0, edge_order=2)
     speed = np.linalg.norm(d1, axis=1)
     kappa = np.linalg.norm(np.cross(d1, d2), axis=1) / np.maximum(speed, 1e-300) ** 3
-    return float(radius * kappa.max())
+    return np.asarray(radius * kappa)
 
 
-def fillet_grid(track: FilletTrack, radius: float, n_arc: int) -> Array:
+def fold_ratio(track: FilletTrack, radius: float) -> float:
+    """Largest ``fold_profile`` of a track (0 for no fillet or too few sections)."""
+    profile = fold_profile(track, radius)
+    return float(profile.max()) if len(profile) else 0.0
+
+
+def loop_spine(tracks: list[FilletTrack], samples: int = SPINE_SAMPLES) -> Array:
+    """``(m, 3)`` ball centres of a blade's whole fillet loop, mm, densified.
+
+    Per track a cubic spline in the segment parameter through its sections (exact
+    at the sections), ``samples`` points each: the balls of the continuous roll
+    to well below the fold depths that matter (a chord of 0.1 mm sags 0.5 um on a
+    2.5 mm ball).
+    """
+    q = np.linspace(0.0, 1.0, samples)
+    return np.concatenate([CubicSpline(t.p, t.centre, axis=0)(q) for t in tracks])
+
+
+def trim_fold(points: Array, spine: Array, radius: float) -> Array:
+    """``points`` moved onto the boundary of the union of the balls on ``spine``.
+
+    A point inside a ball (closer than ``radius - FOLD_TOLERANCE`` to a centre) is
+    pushed radially out of the ball of its nearest centre, repeatedly, until it lies
+    in none: a point of a folded envelope's swallowtail lands on the union's
+    boundary (an outer sheet next to the ridge where the sheets meet, for a shallow
+    fold). Points of a regular envelope are at ``radius`` from their own centre and
+    farther from the others: unchanged.
+
+    Parameters
+    ----------
+    points : (..., 3) float64
+        Fillet points, mm.
+    spine : (m, 3) float64
+        Ball centres (``loop_spine``), mm.
+    radius : float
+        Ball radius r_f, mm.
+    """
+    x = np.array(points, dtype=float).reshape(-1, 3)
+    tree = cKDTree(spine)
+    for _ in range(_PUSHES):
+        distance, nearest = tree.query(x)
+        inside = np.flatnonzero(distance < radius - FOLD_TOLERANCE)
+        if not len(inside):
+            break
+        centre = spine[nearest[inside]]
+        x[inside] = centre + radius * (x[inside] - centre) / distance[inside, None]
+    return x.reshape(np.shape(points))
+
+
+def fold_depth(track: FilletTrack, radius: float, spine: Array, n_arc: int = 41) -> float:
+    """How far (mm) the untrimmed fillet arcs of ``track`` reach into balls of ``spine``.
+
+    0 (to ``FOLD_TOLERANCE``) where the fillet does not fold; nine_blade's suction-side
+    cut trailing-edge corner: 0.39 mm.
+    """
+    grid = fillet_grid(track, radius, n_arc).reshape(-1, 3)
+    distance, _ = cKDTree(spine).query(grid)
+    return float(max(0.0, radius - float(distance.min())))
+
+
+def fold_summary(tracks: list[FilletTrack], radius: float) -> list[dict[str, float | str]]:
+    """Per outline segment of one blade's loop: where and how much its fillet folds.
+
+    Returns
+    -------
+    list of dict
+        ``role`` of the segment, ``ratio`` (its largest ``fold_profile``), ``p``
+        (the segment parameter there) and ``depth_mm`` (``fold_depth`` against the
+        loop's spine: how far the untrimmed arcs reach into other balls, 0 where
+        nothing folds).
+    """
+    if radius <= 0:
+        return []
+    spine = loop_spine(tracks)
+    out: list[dict[str, float | str]] = []
+    for track in tracks:
+        profile = fold_profile(track, radius)
+        k = int(np.argmax(profile))
+        out.append({"role": track.role, "ratio": float(profile[k]), "p": float(track.p[k]),
+                    "depth_mm": fold_depth(track, radius, spine)})
+    return out
+
+
+def fillet_grid(track: FilletTrack, radius: float, n_arc: int,
+                spine: Array | None = None) -> Array:
     """``(n, n_arc, 3)`` points of the fillet cross-section arcs, blade -> hub contact.
 
     Each row is the circular arc of centre ``c`` and radius ``radius`` in the plane
     of the two contact normals, from the blade contact (first column, exactly
     ``track.blade_contact``) to the hub contact (last column, exactly
-    ``track.hub_contact``), at uniform angle steps.
+    ``track.hub_contact``), at uniform angle steps. With ``spine`` (``loop_spine``
+    of the blade's tracks) the inner points are trimmed to the union of the balls
+    (``trim_fold``): where the arcs fold they are moved onto the ridge.
     """
     e1 = -track.blade_normal
     cos = np.clip(np.einsum("ij,ij->i", e1, -track.hub_normal), -1.0, 1.0)
@@ -256,6 +363,8 @@ def fillet_grid(track: FilletTrack, radius: float, n_arc: int) -> Array:
     angle = np.arccos(cos)[:, None] * np.linspace(0.0, 1.0, n_arc)[None, :]
     grid = track.centre[:, None, :] + radius * (np.cos(angle)[..., None] * e1[:, None, :]
                                                 + np.sin(angle)[..., None] * e2[:, None, :])
+    if spine is not None:
+        grid[:, 1:-1] = trim_fold(grid[:, 1:-1], spine, radius)
     grid[:, 0] = track.blade_contact
     grid[:, -1] = track.hub_contact
     return np.asarray(grid)

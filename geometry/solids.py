@@ -55,7 +55,7 @@ from geometry.brep import (
     face_signature,
     faces_of,
 )
-from geometry.fillet import FilletTrack, fillet_grid
+from geometry.fillet import FilletTrack, fillet_grid, loop_spine
 from geometry.outline import OutlineSegment
 from geometry.revolved import RevolvedSurface
 
@@ -166,7 +166,8 @@ def blade_faces(outline: list[OutlineSegment], tracks: list[FilletTrack], radius
     Per outline segment: the lateral face on ``p x [0, v_c(p)]`` (v_c: the blade
     contact of the rolling ball, or the footprint on the hub when ``radius == 0``)
     and, when ``radius > 0``, the fillet face through the cross-section arcs
-    (:func:`geometry.fillet.fillet_grid`). Neighbouring faces sample identical
+    (:func:`geometry.fillet.fillet_grid`, trimmed to the union of the rolling balls
+    of the whole loop where it folds). Neighbouring faces sample identical
     boundary points with identical parameters, so their boundary curves coincide.
     The tip: a ruled face between the pressure and suction tip curves plus one face
     per edge region (a planar half disc for a round edge, a ruled face between the
@@ -178,6 +179,7 @@ def blade_faces(outline: list[OutlineSegment], tracks: list[FilletTrack], radius
     tau = np.linspace(0.0, 1.0, sampling.span)
     arc_t = np.linspace(0.0, 1.0, sampling.arc)
     tips = []
+    spine = loop_spine(tracks) if radius > 0 else None
     for segment, track in zip(outline, tracks, strict=True):
         p = track.p
         grid = segment.point(p[:, None] * np.ones_like(tau), track.v[:, None] * tau[None, :])
@@ -186,7 +188,8 @@ def blade_faces(outline: list[OutlineSegment], tracks: list[FilletTrack], radius
         roles.append(segment.role)
         tips.append(grid[:, 0])
         if radius > 0:
-            faces.append(face_from_grid(fillet_grid(track, radius, sampling.arc), p, arc_t))
+            faces.append(face_from_grid(fillet_grid(track, radius, sampling.arc, spine), p,
+                                        arc_t))
             roles.append("fillet")
     sides = [k for k, s in enumerate(outline) if s.kind == "side"]
     if len(sides) != 2 or sides[0] != 0:

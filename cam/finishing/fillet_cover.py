@@ -2,12 +2,14 @@
 
 ``fillet_samples`` places points on the rolling-ball fillet of one passage wall
 (``fillet_grid`` arcs of its sections, leading- to trailing-edge tip, edges
-included); ``material_left`` gives, per sample, how far the surface lies outside the
-swept balls: ``min_j |x - q_j| - r`` over ball centres q_j densified along each
-pass (linear between postures, at most ``step`` apart). Zero or negative: the ball
-reached the point; positive: the thickness (along the nearest ball's normal) of the
-material a pass left there. Independent of the verification's dexels (used to judge
-the fillet passes on the fillet alone, docs/finishing.md).
+included; moved onto the union of the rolling balls where the arcs fold, as the
+solid's faces are: ``geometry.fillet.trim_fold``); ``material_left`` gives, per
+sample, how far the surface lies outside the swept balls: ``min_j |x - q_j| - r``
+over ball centres q_j densified along each pass (linear between postures, at most
+``step`` apart). Zero or negative: the ball reached the point; positive: the
+thickness (along the nearest ball's normal) of the material a pass left there.
+Independent of the verification's dexels (used to judge the fillet passes on the
+fillet alone, docs/finishing.md).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from scipy.spatial import cKDTree
 
 from cam.finishing.fillet_paths import fillet_section, wall_interval
 from cam.finishing.paths import Wall
-from geometry.fillet import rolling_ball
+from geometry.fillet import rolling_ball, trim_fold
 from geometry.outline import blade_loop
 from geometry.surfaces import BladeSurface, ImpellerSurfaces
 
@@ -51,7 +53,7 @@ def fillet_samples(surfaces: ImpellerSurfaces, wall: Wall, along: int, across: i
     grid = section.centre[:, None, :] + radius * (
         np.cos(angle)[..., None] * section.e1[:, None, :]
         + np.sin(angle)[..., None] * section.e2[:, None, :])
-    return np.asarray(grid.reshape(-1, 3))
+    return np.asarray(trim_fold(grid, section.centre, radius).reshape(-1, 3))
 
 
 def edge_samples(surfaces: ImpellerSurfaces, blade: BladeSurface, edge: str, radius: float,
