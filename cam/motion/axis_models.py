@@ -11,13 +11,14 @@ the *mismatch*. This module therefore gives every axis of the machine file a mod
 * **default** (no servo table): a copy of the *template*, the identified
   axis of the same kind (linear / rotary; any identified axis when none of that kind
   is) whose ramp lag ``alpha_th / omega = Ts / 2 + (1 - K_FFP/100) / Kpp`` is largest,
-  i.e. the axis the builder matches the others to. The loop (Kpp, Kvp, Kvi, Ts, Ta,
-  Tp, K_FFP), the mechanism (J, C, screw lead) are copied; the default axis has no
-  load inertia and its torque limit is the machine file's acceleration limit of the
-  axis at that inertia: ``torque = (J + J1) a_max`` in motor units (the drive can just
-  give the acceleration the machine file promises). Without any identified axis a
-  default is refused: there is nothing to match to, and a made-up drive would be
-  reported as if it were the machine's.
+  i.e. the axis the builder matches the others to (equal lags, to 1 ns: the one at
+  the larger K_FFP, whose lag is its smoothing's, not its position loop's). The loop
+  (Kpp, Kvp, Kvi, Ts, Ta, Tp, K_FFP), the mechanism (J, C, screw lead) are copied;
+  the default axis has no load inertia and its torque limit is the machine file's
+  acceleration limit of the axis at that inertia: ``torque = (J + J1) a_max`` in motor
+  units (the drive can just give the acceleration the machine file promises). Without
+  any identified axis a default is refused: there is nothing to match to, and a
+  made-up drive would be reported as if it were the machine's.
 
 Which axes are defaulted, and to which template, is part of every servo result.
 """
@@ -73,8 +74,9 @@ class AxisModels:
         return {model.name: model for model in self.models.values()}
 
 
-def _ramp_lag(axis: FeedDriveAxis) -> float:
-    return float(alpha_th(axis, 1.0))
+def _ramp_lag(axis: FeedDriveAxis) -> tuple[float, float]:
+    """Ramp lag (s, rounded to 1 ns so matched axes tie), then K_FFP."""
+    return round(float(alpha_th(axis, 1.0)), 9), axis.k_ffp
 
 
 def default_axis(spec: AxisSpec, template: FeedDriveAxis) -> FeedDriveAxis:

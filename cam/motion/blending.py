@@ -54,7 +54,8 @@ from postproc.program import MachineProgram
 if TYPE_CHECKING:
     from postproc.machine import Machine
 
-__all__ = ["BlendedTime", "blended_program_time", "blended_times", "DEFAULT_TOLERANCE_MM"]
+__all__ = ["BlendedTime", "SpeedPlan", "blended_program_time", "blended_times",
+           "plan_speeds", "DEFAULT_TOLERANCE_MM"]
 
 Array = NDArray[np.float64]
 #: The path tolerance of our LinuxCNC programs (``G64 P0.01``), mm.
@@ -98,24 +99,29 @@ def _reach(v: float, length: float, vmax: float, acc: float, jerk: float) -> flo
 
 
 @njit(cache=True)
+def _segment_peak(v0: float, v1: float, length: float, vmax: float, acc: float,
+                  jerk: float) -> float:
+    """Highest speed of the shortest motion over ``length`` from ``v0`` to ``v1``."""
+    if _phase_distance(v0, vmax, acc, jerk) + _phase_distance(vmax, v1, acc, jerk) <= length:
+        return vmax
+    lo, hi = max(v0, v1), vmax
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        if _phase_distance(v0, mid, acc, jerk) + _phase_distance(mid, v1, acc, jerk) \
+                <= length:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True)
 def _segment_time(v0: float, v1: float, length: float, vmax: float, acc: float,
                   jerk: float) -> float:
     """Shortest time over ``length`` from speed ``v0`` to ``v1`` (both feasible)."""
     if length <= 0.0:
         return 0.0
-    low = max(v0, v1)
-    if _phase_distance(v0, vmax, acc, jerk) + _phase_distance(vmax, v1, acc, jerk) <= length:
-        peak = vmax
-    else:
-        lo, hi = low, vmax
-        for _ in range(_BISECTIONS):
-            mid = 0.5 * (lo + hi)
-            if _phase_distance(v0, mid, acc, jerk) + _phase_distance(mid, v1, acc, jerk) \
-                    <= length:
-                lo = mid
-            else:
-                hi = mid
-        peak = lo
+    peak = _segment_peak(v0, v1, length, vmax, acc, jerk)
     up = _phase_time(peak - v0, acc, jerk)
     down = _phase_time(peak - v1, acc, jerk)
     rest = length - _phase_distance(v0, peak, acc, jerk) - _phase_distance(peak, v1, acc, jerk)
@@ -124,8 +130,10 @@ def _segment_time(v0: float, v1: float, length: float, vmax: float, acc: float,
 
 
 @njit(cache=True)
-def _plan(length: Array, vmax: Array, acc: Array, jerk: Array, corner: Array) -> Array:
-    """Time of each segment; ``corner[i]``: speed limit at the end of segment i."""
+def _plan(length: Array, vmax: Array, acc: Array, jerk: Array, corner: Array
+          ) -> tuple[Array, Array, Array]:
+    """Time, entry and exit speed of each segment; ``corner[i]``: speed limit at the
+    end of segment i."""
     n = len(length)
     end = np.empty(n)
     # backwards from rest at the end
@@ -137,12 +145,60 @@ def _plan(length: Array, vmax: Array, acc: Array, jerk: Array, corner: Array) ->
                         _reach(after, length[i], vmax[i], acc[i], jerk[i]))
     # forwards from rest at the start
     out = np.empty(n)
+    entry = np.empty(n)
+    leave = np.empty(n)
     before = 0.0
     for i in range(n):
         exit_speed = min(end[i], _reach(before, length[i], vmax[i], acc[i], jerk[i]))
         out[i] = _segment_time(before, exit_speed, length[i], vmax[i], acc[i], jerk[i])
+        entry[i] = before
+        leave[i] = exit_speed
         before = exit_speed
-    return out
+    return out, entry, leave
+
+
+@dataclass(frozen=True)
+class SpeedPlan:
+    """The look-ahead plan of consecutive blocks in normalised joint space ``y = q / v``.
+
+    Attributes
+    ----------
+    moving : (k,) int64
+        Indices of the blocks that move.
+    segment : (k,) int64
+        Segment (collinear run of blocks with the same bounds) of each moving block.
+    length : (k,) float64
+        Length of each moving block in y, s (y is joint / velocity limit).
+    seg_length, vmax, acc, jerk : (s,) float64
+        Per segment: length in y, bounds on the path speed (1), acceleration (1/s) and
+        jerk (1/s^2).
+    direction : (s, m) float64
+        Unit direction of each segment in y.
+    tau : (s - 1,) float64
+        Per corner: joint-velocity change per unit path speed over the axes'
+        accelerations, ``max_k |d2_k - d1_k| / alpha_k``, s (0: no corner).
+    time, entry, exit : (s,) float64
+        Per segment: duration (s), path speed at its start and at its end (1).
+    """
+
+    moving: NDArray[np.int64]
+    segment: NDArray[np.int64]
+    length: Array
+    seg_length: Array
+    vmax: Array
+    acc: Array
+    jerk: Array
+    direction: Array
+    tau: Array
+    time: Array
+    entry: Array
+    exit: Array
+
+    def peak(self) -> Array:
+        """Highest path speed inside each segment ``(s,)`` (the plan's cruise speed)."""
+        return np.array([_segment_peak(a, b, L, v, c, j) for a, b, L, v, c, j in
+                         zip(self.entry, self.exit, self.seg_length, self.vmax,
+                             self.acc, self.jerk, strict=True)], dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -167,37 +223,24 @@ class BlendedTime:
         return float(self.time.sum())
 
 
-def blended_times(delta: Array, velocity: Array, acceleration: Array, jerk: Array,
-                  rotary: NDArray[np.bool_], rate_bound: Array,
-                  tolerance: float = DEFAULT_TOLERANCE_MM) -> Array:
-    """Blended time of consecutive straight joint moves starting and ending at rest.
+def plan_speeds(delta: Array, velocity: Array, acceleration: Array, jerk: Array,
+                rotary: NDArray[np.bool_], rate_bound: Array,
+                tolerance: float = DEFAULT_TOLERANCE_MM) -> SpeedPlan | None:
+    """The look-ahead speed plan of consecutive straight joint moves, rest to rest.
 
-    Parameters
-    ----------
-    delta : (n, m) float64
-        Joint displacement of each block, internal units (mm, rad).
-    velocity, acceleration, jerk : (m,) float64
-        Axis limits (jerk may be ``inf``).
-    rotary : (m,) bool
-        Rotary joints (tolerance read in degrees).
-    rate_bound : (n,) float64
-        Bound on the block parameter's rate ``ds/dt`` (the feed; ``inf`` for none), 1/s.
-    tolerance : float
-        Path tolerance ``P`` (``G64 P``), mm; rotary joints: degrees.
+    Parameters as ``blended_times``.
 
     Returns
     -------
-    (n,) float64
-        Time per block, s; 0 for blocks that do not move.
+    SpeedPlan or None
+        None when no block moves.
     """
     delta = np.asarray(delta, dtype=np.float64)
-    n = len(delta)
-    out = np.zeros(n)
     y = delta / velocity
     length = np.linalg.norm(y, axis=1)
     moving = np.flatnonzero(length > 0.0)
     if not moving.size:
-        return out
+        return None
     y, length = y[moving], length[moving]
     d = y / length[:, None]
     span = np.abs(d)
@@ -227,11 +270,45 @@ def blended_times(delta: Array, velocity: Array, acceleration: Array, jerk: Arra
         corner = np.sqrt(np.minimum(1.0 / (tau * dev), room / tau))
     corner = np.where(tau > 0, corner, np.inf)
     corner = np.concatenate([corner, [0.0]]).astype(np.float64)
-    seg_time = _plan(np.asarray(seg_length, np.float64), np.asarray(seg_vmax, np.float64),
-                     np.asarray(seg_acc, np.float64), np.asarray(seg_jerk, np.float64),
-                     corner)
-    share = length / seg_length[segment]
-    out[moving] = seg_time[segment] * share
+    seg_len: Array = np.asarray(seg_length, dtype=np.float64)
+    seg_vmax, seg_acc = np.asarray(seg_vmax, np.float64), np.asarray(seg_acc, np.float64)
+    seg_jerk = np.asarray(seg_jerk, np.float64)
+    seg_time, entry, leave = _plan(seg_len, seg_vmax, seg_acc, seg_jerk, corner)
+    return SpeedPlan(moving=moving, segment=segment, length=length, seg_length=seg_len,
+                     vmax=seg_vmax, acc=seg_acc, jerk=seg_jerk, direction=seg_d,
+                     tau=np.where(tau > 0, tau, 0.0), time=seg_time, entry=entry,
+                     exit=leave)
+
+
+def blended_times(delta: Array, velocity: Array, acceleration: Array, jerk: Array,
+                  rotary: NDArray[np.bool_], rate_bound: Array,
+                  tolerance: float = DEFAULT_TOLERANCE_MM) -> Array:
+    """Blended time of consecutive straight joint moves starting and ending at rest.
+
+    Parameters
+    ----------
+    delta : (n, m) float64
+        Joint displacement of each block, internal units (mm, rad).
+    velocity, acceleration, jerk : (m,) float64
+        Axis limits (jerk may be ``inf``).
+    rotary : (m,) bool
+        Rotary joints (tolerance read in degrees).
+    rate_bound : (n,) float64
+        Bound on the block parameter's rate ``ds/dt`` (the feed; ``inf`` for none), 1/s.
+    tolerance : float
+        Path tolerance ``P`` (``G64 P``), mm; rotary joints: degrees.
+
+    Returns
+    -------
+    (n,) float64
+        Time per block, s; 0 for blocks that do not move.
+    """
+    out = np.zeros(len(delta))
+    plan = plan_speeds(delta, velocity, acceleration, jerk, rotary, rate_bound, tolerance)
+    if plan is None:
+        return out
+    share = plan.length / plan.seg_length[plan.segment]
+    out[plan.moving] = plan.time[plan.segment] * share
     return out
 
 

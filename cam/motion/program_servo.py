@@ -2,9 +2,14 @@
 
 1. Joint targets: the program's joints; blocks under tool-centre-point control carry
    the tool tip, mapped to joints through the table-tilting-rotary kinematics.
-2. Commanded motion in time: feed blocks at the interpolator's times (look-ahead
-   blending under the feed and the axes' limits, never faster than length / feed:
-   ``commanded_durations``), joints interpolated linearly and sampled at ``dt``;
+2. Commanded motion in time (``feed_profile``): ``"lookahead"`` (default) is the
+   control's look-ahead (``cam.motion.lookahead``): the path speed planned over the
+   blocks, continuous, its changes jerk-limited S-curve phases at the axes' limits,
+   corners blended within ``G64 P``, so the joint velocities are continuous.
+   ``"block"`` runs each feed block at its own constant speed over the interpolator's
+   time (look-ahead blending under the feed and the axes' limits, never faster than
+   length / feed: ``commanded_durations``), joints interpolated linearly and sampled
+   at ``dt``, so the joint velocities jump at every block end;
    rapids as rest-to-rest trapezoids at the axes' limits. Acceleration and
    deceleration come from each axis's own smoothing filter (Ts, the controller's
    acc/dec after interpolation) inside the feed-drive model. A
@@ -36,7 +41,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -55,6 +60,10 @@ PROGRAM_DT = 2.5e-4
 
 #: Largest number of samples simulated (memory guard: 5 axes x 8 bytes each).
 MAX_SAMPLES = 20_000_000
+
+#: How the control runs the feed across blocks (``simulate_program``).
+FeedProfile = Literal["lookahead", "block"]
+FEED_PROFILES: tuple[str, ...] = ("lookahead", "block")
 
 
 def program_joints(program: MachineProgram, machine: Machine) -> NDArray[np.float64]:
@@ -349,6 +358,7 @@ def characteristic_omega(program: MachineProgram, machine: Machine,
 def simulate_program(
     program: MachineProgram, machine: Machine, dt: float = PROGRAM_DT,
     recommend: bool = True, models: AxisModels | None = None,
+    feed_profile: FeedProfile = "lookahead",
 ) -> ServoReport:
     """Simulate every axis of ``program`` and predict the contour error at the tool.
 
@@ -362,6 +372,9 @@ def simulate_program(
         Also compute the Best K_FFP per axis and the contour error with it.
     models : AxisModels, optional
         The axes' feed-drive models (default: ``machine_axis_models(machine)``).
+    feed_profile : {"lookahead", "block"}
+        The control's look-ahead feed profile (joint velocities continuous) or every
+        feed block at its own constant speed (module doc, step 2).
 
     Returns
     -------
@@ -376,7 +389,16 @@ def simulate_program(
     joints = program_joints(program, machine)
     settle = settle_time(axes)
     durations = commanded_durations(program, machine, joints)
-    t, command, ends = commanded_motion(program, machine, joints, dt, settle, durations)
+    if feed_profile == "lookahead":
+        from cam.motion.lookahead import lookahead_motion
+
+        t, command, ends = lookahead_motion(program, machine, joints, dt, settle,
+                                            max_samples=MAX_SAMPLES)
+    elif feed_profile == "block":
+        t, command, ends = commanded_motion(program, machine, joints, dt, settle, durations)
+    else:
+        raise InputError("unknown feed profile", field="feed_profile", value=feed_profile,
+                         accepted=" or ".join(FEED_PROFILES))
     index = _block_index(t, ends)
     n = len(program)
     feed_samples = (program.motion == Motion.LINEAR)[index]

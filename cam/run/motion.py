@@ -226,6 +226,7 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
     out: dict[str, Any] = {
         "program": "all finishing programs",
         "dt_s": SERVO_DT,
+        "feed_profile": "lookahead",
         "axis_models": models.source,
         "kffp_machine": {a.name: a.k_ffp for a in models.models.values()},
         "max_contour_um": 1000.0 * float(every.max()),
@@ -236,7 +237,9 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
                 "largest per NC block over feed blocks; RMS over the feed samples; every "
                 "axis modelled (axis_models: identified or a default matched to the "
                 "most lagging identified axis of its kind); Best K_FFP per program at "
-                "its characteristic rotary speed",
+                "its characteristic rotary speed; commanded motion: the control's "
+                "look-ahead (path speed continuous, jerk-limited at the axes' limits, "
+                "corners blended within G64 P)",
     }
     if len(tuned_errors) == len(errors):
         out["max_contour_best_kffp_um"] = 1000.0 * float(np.concatenate(tuned_errors).max())

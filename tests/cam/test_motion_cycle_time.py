@@ -26,6 +26,18 @@ def machine():  # type: ignore[no-untyped-def]
     return load_machine(MACHINES / "trunnion-500.toml")
 
 
+@pytest.fixture(scope="module")
+def unmatched(machine):  # type: ignore[no-untyped-def]
+    """trunnion-500 at Table 1's set point: X's K_FFP 100 % (lags 25 ms, Y and C 32 ms)."""
+    from dataclasses import replace
+    from types import MappingProxyType
+
+    x = machine.axes["X"]
+    axes = dict(machine.axes)
+    axes["X"] = replace(x, servo=MappingProxyType({**x.servo, "K_FFP": 100.0}))
+    return replace(machine, axes=MappingProxyType(axes))
+
+
 def _program(joints: np.ndarray, motion: int, feed: float, mode: int = 94,
              start: np.ndarray | None = None, tcp: bool = False) -> MachineProgram:
     n = len(joints)
@@ -103,10 +115,12 @@ def _circle(machine, sign: float, n: int = 400, feed: float = 3000.0) -> Machine
 
 
 @pytest.mark.parametrize("sign", [1.0, -1.0])
-def test_program_servo_deviation_and_kffp(machine, sign: float) -> None:  # type: ignore[no-untyped-def]
+def test_program_servo_deviation_and_kffp(unmatched, sign: float) -> None:  # type: ignore[no-untyped-def]
     # C turns once while X/Y circle with R_W = 8 mm: with one sign the tool tip runs
     # round a circle in W, with the other it stays put in W (the paper's relative
-    # motion: the lag mismatch alpha - beta is all that moves it)
+    # motion: the lag mismatch alpha - beta is all that moves it). The machine at
+    # Table 1's K_FFP (100 %): the paper's unmatched X, which the Best K_FFP matches.
+    machine = unmatched
     program = _circle(machine, sign)
     report = simulate_program(program, machine)
     assert report.default_axes == ["Z", "A"]
