@@ -57,6 +57,8 @@ class BladeSwarfPass:
     area_share : float
         Share of the side's area (v in [0, 1], the outline's u range) inside the
         band of cuttable rulings, 0..1.
+    side_area : float
+        Area of the side (v in [0, 1], the outline's u range), mm^2.
     """
 
     role: str
@@ -65,6 +67,7 @@ class BladeSwarfPass:
     sweep: SweptDeviation
     cuttable: NDArray[np.bool_]
     area_share: float
+    side_area: float
 
     def summary(self) -> dict[str, float | int | str]:
         """Per-pass figures for reports (mm, counts, share 0..1).
@@ -84,6 +87,7 @@ class BladeSwarfPass:
             "swept_undercut_mm": self.sweep.undercut,
             "max_top_height_mm": float(p.top_height.max()),
             "area_share": self.area_share,
+            "side_area_mm2": self.side_area,
         }
 
 
@@ -253,4 +257,4 @@ def plan_blade_side(blade: BladeSurface, hub: RevolvedSurface, role: str, tool: 
     cut_area = _area(seg, lo, hi, v_bottom, p, True)
     side_area = _area(seg, np.array([0.0]), np.array([1.0]), v_bottom, p, False)
     return BladeSwarfPass(role, postures, v_bottom, sweep, cuttable,
-                          cut_area / side_area if side_area > 0 else 0.0)
+                          cut_area / side_area if side_area > 0 else 0.0, side_area)

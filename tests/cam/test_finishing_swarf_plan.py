@@ -1,0 +1,88 @@
+"""The swarf operation in finishing: options, the point-milling fallback's skip, and the
+checked passes on the developable fixture ``straight`` (issue 23)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cam.finishing.options import FinishOptions, scallop_stepover
+from cam.finishing.passes import passage_paths
+from cam.finishing.swarf_plan import SwarfWall, covered_by, swarf_walls
+from cam.tools import Tool, load_tool_library
+from geometry.spec import load_spec
+from geometry.surfaces import ImpellerSurfaces, build_surfaces
+from impeller_cam.errors import InputError
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def straight() -> ImpellerSurfaces:
+    return build_surfaces(load_spec(ROOT / "fixtures" / "impellers" / "straight" / "spec.toml"))
+
+
+@pytest.fixture(scope="module")
+def tool() -> Tool:
+    return load_tool_library(ROOT / "fixtures" / "tools" / "library.toml")["ball4_taper"]
+
+
+@pytest.fixture(scope="module")
+def walls(straight: ImpellerSurfaces, tool: Tool) -> list[SwarfWall]:
+    return swarf_walls(straight, tool, FinishOptions())
+
+
+@pytest.mark.parametrize(("field", "value"), [("blade_strategy", "flank"),
+                                              ("swarf_overcut_mm", -0.01),
+                                              ("swarf_undercut_mm", math.nan),
+                                              ("swarf_ruling_step_mm", 0.0)])
+def test_bad_swarf_options_name_the_field(field: str, value: object) -> None:
+    with pytest.raises(InputError) as error:
+        FinishOptions.from_mapping({field: value})
+    assert error.value.field == field
+
+
+def test_swarf_walls_of_the_developable_fixture(walls: list[SwarfWall]) -> None:
+    assert [sw.wall.label for sw in walls] == ["blade0.pressure", "blade1.suction"]
+    for sw in walls:
+        assert sw.result.cuttable.all()
+        assert sw.result.area_share == pytest.approx(0.8, abs=1e-3)
+        # the rulings' blade u covers the side between the edge caps, increasing or not
+        assert np.all(np.diff(sw.blade_u) != 0)
+
+
+def test_covered_blade_passes_are_skipped(straight: ImpellerSurfaces, tool: Tool,
+                                          walls: list[SwarfWall]) -> None:
+    """Blade passes inside the swarf band are left out, the other operations kept.
+
+    On ``straight`` the band reaches v = 0.8 (2 mm above the hub) and the lowest blade
+    pass runs higher (the junction passes finish the fillet strip), so every blade pass
+    is swarf-cut; with every ruling rejected none is.
+    """
+    stepover = scallop_stepover(tool.radius, 0.1)
+    base = passage_paths(straight, tool.radius, 1.0, stepover, blade=True, hub=False,
+                         reach=tool.flute_length - tool.radius)
+    blade = [p for p in base if p.operation == "blade"]
+    assert blade
+    skip = covered_by(walls)
+    for p in blade:
+        assert p.blade_v is not None and np.all(p.blade_v <= 0.8)
+        assert skip(p)
+    assert not any(skip(p) for p in base if p.operation != "blade")
+    rejected = [SwarfWall(sw.wall, replace(sw.result, cuttable=np.zeros_like(sw.result.cuttable)),
+                          sw.blade_u) for sw in walls]
+    assert not any(covered_by(rejected)(p) for p in blade)
+
+
+def test_rejected_rulings_are_not_covered(walls: list[SwarfWall]) -> None:
+    sw = walls[0]
+    rejected = replace(sw.result, cuttable=np.zeros_like(sw.result.cuttable))
+    none = SwarfWall(sw.wall, rejected, sw.blade_u)
+    u = np.linspace(sw.blade_u.min(), sw.blade_u.max(), 7)
+    assert not none.covered(u, np.full(7, 0.3)).any()
+    assert sw.covered(u, np.full(7, 0.3)).all()
+    assert not sw.covered(u, np.full(7, 0.95)).any()  # below the band
