@@ -355,14 +355,14 @@ class FinishResult:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def operations(self) -> dict[str, list[PathResult]]:
-        """Paths grouped by operation: junction, blade, hub, fillet (those present).
+        """Paths grouped by operation: junction, blade, swarf, edge, hub, fillet (those present).
 
         Returns
         -------
         dict of str to list of PathResult
         """
         out: dict[str, list[PathResult]] = {}
-        for op in ("junction", "blade", "edge", "hub", "fillet"):
+        for op in ("junction", "blade", "swarf", "edge", "hub", "fillet"):
             members = [p for p in self.paths if p.path.operation == op]
             if members:
                 out[op] = members

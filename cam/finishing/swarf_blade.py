@@ -11,7 +11,8 @@ the rest of the side (the fillet strip and the edges) is left to point milling.
 The deviations are computed against the exact side surface (``BladeSurface.side``),
 not a mesh: per ruling (``cam.finishing.swarf.section_gap``) and over the sweep
 (``cam.finishing.swarf_sweep``). A ruling is swarf-cuttable when its deviations lie
-within ``[-overcut, +undercut]`` and its top end is within the flutes. Lengths mm.
+within ``[-overcut, +undercut]`` and its top end is within the flutes (by a margin:
+the neck's clearance). Lengths mm.
 """
 
 from __future__ import annotations
@@ -205,7 +206,7 @@ def plan_blade_side(blade: BladeSurface, hub: RevolvedSurface, role: str, tool: 
                     *, leading_edge: str, trailing_edge: str, fillet_radius: float,
                     ruling_step_mm: float = 0.5, overcut: float = 0.01,
                     undercut: float = 0.03, samples: int = 21,
-                    refine: bool = True) -> BladeSwarfPass:
+                    refine: bool = True, flute_margin: float = 0.0) -> BladeSwarfPass:
     """Plan and predict the swarf pass on one side of a blade.
 
     Parameters
@@ -227,6 +228,9 @@ def plan_blade_side(blade: BladeSurface, hub: RevolvedSurface, role: str, tool: 
         Points per ruling.
     refine : bool
         Least-squares refinement of the postures.
+    flute_margin : float
+        The ruling's top end must lie this far below the top of the flutes, mm (the
+        neck above them keeps its clearance from the blade tip: ``clearance_mm``).
 
     Returns
     -------
@@ -249,7 +253,7 @@ def plan_blade_side(blade: BladeSurface, hub: RevolvedSurface, role: str, tool: 
     np.maximum.at(swept_max, owner, sweep.deviation.max(axis=1))
     cuttable = ((postures.deviation_min >= -overcut) & (postures.deviation_max <= undercut)
                 & (swept_min >= -overcut) & (swept_max <= undercut)
-                & (postures.top_height <= tool.flute_length))
+                & (postures.top_height <= tool.flute_length - flute_margin))
     # area of the band over the runs of cuttable rulings (each ruling: half a step each way)
     half = 0.5 * (p[1] - p[0])
     lo = np.clip(p[cuttable] - half, 0.0, 1.0)

@@ -110,7 +110,7 @@ def swarf_walls(surfaces: ImpellerSurfaces, tool: Tool,
                 wall.blade, surfaces.hub, role, flank, leading_edge=spec.leading_edge,
                 trailing_edge=spec.trailing_edge, fillet_radius=float(spec.fillet_radius),
                 ruling_step_mm=options.swarf_ruling_step_mm, overcut=options.swarf_overcut_mm,
-                undercut=options.swarf_undercut_mm)
+                undercut=options.swarf_undercut_mm, flute_margin=options.clearance_mm)
             seg = side_segment(wall.blade, role, spec.leading_edge, spec.trailing_edge)
             out.append(SwarfWall(wall, result, np.asarray(seg.u_of(result.postures.u))))
     return out
