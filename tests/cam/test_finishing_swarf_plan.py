@@ -86,3 +86,30 @@ def test_rejected_rulings_are_not_covered(walls: list[SwarfWall]) -> None:
     assert not none.covered(u, np.full(7, 0.3)).any()
     assert sw.covered(u, np.full(7, 0.3)).all()
     assert not sw.covered(u, np.full(7, 0.95)).any()  # below the band
+
+
+@pytest.mark.slow
+def test_finish_run_writes_checked_swarf_passes(tmp_path: Path) -> None:
+    """``run_finish`` with ``blade_strategy = "swarf"`` on ``straight`` (passage 0, the
+    closed-form surfaces as the collision scene): one flank pass per wall, no blade
+    ball passes, no collision, no A/C reversal, linked without collisions."""
+    from cam.finishing.command import run_finish
+
+    doc = run_finish(ROOT / "fixtures" / "impellers" / "straight" / "spec.toml",
+                     ROOT / "fixtures" / "machines" / "trunnion-500.toml", "ball4_taper",
+                     tmp_path / "out", scene="surfaces", plots=False, progress=False,
+                     machine_obstacle=False, blade_strategy="swarf", passages=1,
+                     edge_passes=False, hub_passes=False, scallop_mm=0.1,
+                     point_spacing_mm=1.0)
+    ops = doc["operations"]
+    assert set(ops) == {"junction", "swarf"}
+    assert ops["swarf"]["paths"] == 2 and ops["swarf"]["link_collisions"] == 0
+    assert (tmp_path / "out" / "finish_swarf.apt").is_file()
+    swarf = doc["swarf"]
+    assert swarf["passes"] == 2 and swarf["collisions"] == 0
+    assert swarf["reversals_A"] == 0 and swarf["reversals_C"] == 0
+    assert swarf["blade_area_share"] == pytest.approx(0.75, abs=1e-3)
+    for wall in swarf["walls"]:
+        assert wall["swept_overcut_mm"] <= 0.01 and wall["swept_undercut_mm"] <= 0.03
+    entries = [p for p in doc["paths"] if p["operation"] == "swarf"]
+    assert all(p["collisions"] == 0 and p["motion_collisions"] == 0 for p in entries)
