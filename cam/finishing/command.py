@@ -224,18 +224,21 @@ def _machine_entry(obstacle: MachineObstacle, result: FinishResult,
             "distance_queries": int(stats["distance_queries"])}
 
 
-def _swarf_setup(surfaces: ImpellerSurfaces, tool: Tool, opts: FinishOptions
-                 ) -> tuple[Any, FinishOptions, Any]:
-    """The swarf prediction (None for ``blade_strategy = "point"``), the options of the
-    point milling (no blade passes for ``"swarf"``) and its ``skip`` of blade passes."""
+def _swarf_setup(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
+                 collision: CollisionScene, opts: FinishOptions, scene: str,
+                 report: Any) -> tuple[FinishResult | None, FinishOptions, Any]:
+    """The checked swarf passes (None for ``blade_strategy = "point"``), the options of
+    the point milling (no blade passes for ``"swarf"``) and its ``skip`` of the blade
+    passes the swarf passes cut (``"swarf_or_point"``)."""
     if opts.blade_strategy == "point":
         return None, opts, None
-    from cam.finishing.swarf_plan import covered_by, swarf_walls
+    from cam.finishing.swarf_plan import covered_by, plan_swarf
 
-    walls = swarf_walls(surfaces, tool, opts)
+    flank = plan_swarf(surfaces, tool, kins, collision, opts, scene_source=scene,
+                       progress=report)
     if opts.blade_strategy == "swarf":
-        return walls, replace(opts, blade_passes=False), None
-    return walls, opts, covered_by(walls)
+        return flank, replace(opts, blade_passes=False), None
+    return flank, opts, covered_by(flank.extra["swarf_walls"])
 
 
 def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
@@ -348,18 +351,15 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
             if bar is not None:
                 bar.update(task, completed=done, total=total, description=name)
 
-        walls, plan_opts, skip = _swarf_setup(surfaces, the_tool, opts)
+        flank, plan_opts, skip = _swarf_setup(surfaces, the_tool, kins, collision, opts,
+                                              scene, report)
         result = plan_finishing(surfaces, the_tool, kins, collision, plan_opts,
                                 scene_source=scene, progress=report, skip=skip)
         result = FinishResult(result.paths, the_tool, opts, scene)
         toolpaths = finish_toolpaths(result, surfaces, collision, kins)
         tools = {op: the_tool for op in toolpaths}
         swarf_entry = None
-        if walls is not None:
-            from cam.finishing.swarf_plan import plan_swarf
-
-            flank = plan_swarf(surfaces, the_tool, kins, collision, opts, scene_source=scene,
-                               walls=walls, progress=report)
+        if flank is not None:
             swarf_entry = flank.extra["swarf"]
             if flank.paths:
                 toolpaths.update(finish_toolpaths(flank, surfaces, collision, kins))

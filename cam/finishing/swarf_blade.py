@@ -55,9 +55,8 @@ class BladeSwarfPass:
         Deviation of the band from the swept tool, mm.
     cuttable : (n,) bool
         Rulings within tolerance and within the flutes.
-    area_share : float
-        Share of the side's area (v in [0, 1], the outline's u range) inside the
-        band of cuttable rulings, 0..1.
+    ruling_area : (n,) float64
+        Area of the band strip of each ruling (half a step on each side), mm^2.
     side_area : float
         Area of the side (v in [0, 1], the outline's u range), mm^2.
     """
@@ -67,8 +66,16 @@ class BladeSwarfPass:
     v_bottom: Array
     sweep: SweptDeviation
     cuttable: NDArray[np.bool_]
-    area_share: float
+    ruling_area: Array
     side_area: float
+
+    @property
+    def area_share(self) -> float:
+        """Share of the side's area (v in [0, 1], the outline's u range) inside the
+        band of the cuttable rulings, 0..1."""
+        if self.side_area <= 0:
+            return 0.0
+        return float(self.ruling_area[self.cuttable].sum() / self.side_area)
 
     def summary(self) -> dict[str, float | int | str]:
         """Per-pass figures for reports (mm, counts, share 0..1).
@@ -182,11 +189,11 @@ def _band_patch(seg: OutlineSegment, p: Array, v_bottom: Array) -> RuledPatch:
 
 
 def _area(seg: OutlineSegment, p_lo: Array, p_hi: Array, v_bottom: Array,
-          p: Array, v_top_only: bool) -> float:
-    """Area of the side over ``p`` in [p_lo, p_hi] ranges, v in [0, v_b] (or [0, 1]), mm^2."""
-    nu, nv = _AREA_GRID
-    total = 0.0
-    for a, b in zip(p_lo, p_hi, strict=True):
+          p: Array, v_top_only: bool, nu: int = _AREA_GRID[0]) -> Array:
+    """Areas of the side over ``p`` in each [p_lo, p_hi], v in [0, v_b] (or [0, 1]), mm^2."""
+    nv = _AREA_GRID[1]
+    out = np.zeros(len(p_lo))
+    for i, (a, b) in enumerate(zip(p_lo, p_hi, strict=True)):
         if b <= a:
             continue
         pp = np.linspace(a, b, nu)
@@ -198,8 +205,8 @@ def _area(seg: OutlineSegment, p_lo: Array, p_hi: Array, v_bottom: Array,
         d_p = (seg.point(pg + h, vg) - seg.point(pg - h, vg)) / (2 * h)
         d_v = (seg.point(pg, vg + h) - seg.point(pg, vg - h)) / (2 * h)
         dens = np.linalg.norm(np.cross(d_p, d_v), axis=-1) * vb[:, None]
-        total += float(np.trapezoid(np.trapezoid(dens, s, axis=1), pp))
-    return total
+        out[i] = float(np.trapezoid(np.trapezoid(dens, s, axis=1), pp))
+    return out
 
 
 def plan_blade_side(blade: BladeSurface, hub: RevolvedSurface, role: str, tool: FlankTool,
@@ -254,11 +261,9 @@ def plan_blade_side(blade: BladeSurface, hub: RevolvedSurface, role: str, tool: 
     cuttable = ((postures.deviation_min >= -overcut) & (postures.deviation_max <= undercut)
                 & (swept_min >= -overcut) & (swept_max <= undercut)
                 & (postures.top_height <= tool.flute_length - flute_margin))
-    # area of the band over the runs of cuttable rulings (each ruling: half a step each way)
+    # the band strip of each ruling: half a step each way
     half = 0.5 * (p[1] - p[0])
-    lo = np.clip(p[cuttable] - half, 0.0, 1.0)
-    hi = np.clip(p[cuttable] + half, 0.0, 1.0)
-    cut_area = _area(seg, lo, hi, v_bottom, p, True)
-    side_area = _area(seg, np.array([0.0]), np.array([1.0]), v_bottom, p, False)
-    return BladeSwarfPass(role, postures, v_bottom, sweep, cuttable,
-                          cut_area / side_area if side_area > 0 else 0.0, side_area)
+    strips = _area(seg, np.clip(p - half, 0.0, 1.0), np.clip(p + half, 0.0, 1.0), v_bottom,
+                   p, True, nu=5)
+    side_area = float(_area(seg, np.array([0.0]), np.array([1.0]), v_bottom, p, False)[0])
+    return BladeSwarfPass(role, postures, v_bottom, sweep, cuttable, strips, side_area)

@@ -9,7 +9,8 @@ consecutive rulings within the tolerances (``swarf_overcut_mm``,
 which would change the deviation), checked like any finishing path
 (``interference.check_path``: the flutes are the cutter, shank and holder keep
 ``clearance_mm``) and counted for A/C reversals in the machine's joints. The other
-passages get rotated copies. ``covered`` tells the point-milling planner which blade
+passages get rotated copies. Postures that collide or start an A/C reversal are
+dropped from the swarf cut (``plan_swarf``). ``covered`` tells the point-milling planner which blade
 passes lie wholly inside the swarf-cut band (``blade_strategy = "swarf_or_point"``).
 """
 
@@ -17,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -41,6 +42,8 @@ if TYPE_CHECKING:
 __all__ = ["SwarfWall", "covered_by", "plan_swarf", "swarf_report", "swarf_walls"]
 
 Array = NDArray[np.float64]
+#: Check-and-drop rounds of the swarf postures of passage 0.
+_CHECK_ROUNDS = 4
 
 
 @dataclass(frozen=True)
@@ -141,11 +144,47 @@ def _path_result(path: CutterPath, tip: Array, axis: Array, tool: Tool, kins: Ki
                       inter, 0.0, None, nan, nan.copy(), angle_between(axis, path.normal))
 
 
+def _wall_passes(sw: SwarfWall, cut: NDArray[np.bool_], tool: Tool
+                 ) -> list[tuple[CutterPath, Array, Array, NDArray[np.intp]]]:
+    """Passage-0 passes of a wall: one per run of rulings in ``cut``."""
+    post = sw.result.postures
+    normal = sw.wall.blade.side_normal(sw.blade_u, np.full(len(sw.blade_u), 0.5), sw.wall.side)
+    out = []
+    for j, run in enumerate(_runs(cut)):
+        centre = post.tips[run] + tool.radius * post.axes[run]
+        path = CutterPath(
+            name=f"p0.swarf.{sw.wall.label}.{j:02d}", operation="swarf", passage=0,
+            centre=centre, normal=normal[run], reference_axis=post.axes[run],
+            away=normal[run], opposite_tip=centre.copy(),
+            curve_u=sw.wall.curve_u(sw.blade_u[run]), wall=sw.wall)
+        out.append((path, post.tips[run], post.axes[run], run))
+    return out
+
+
+def _blocked(result: PathResult) -> NDArray[np.bool_]:
+    """Postures that collide, start or end a colliding motion, or start a reversal."""
+    inter = result.interference
+    bad = np.array(inter.collides, dtype=bool, copy=True)
+    bad[:-1] |= inter.motion_collides
+    bad[1:] |= inter.motion_collides
+    for points in result.reversal_points_before.values():
+        bad[np.asarray(points, dtype=np.intp)] = True
+    return bad
+
+
 def plan_swarf(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                scene: CollisionScene, options: FinishOptions, *, scene_source: str,
                walls: list[SwarfWall] | None = None,
                progress: Callable[[int, int, str], None] | None = None) -> FinishResult:
     """The swarf passes of every passage, checked; the prediction in ``extra``.
+
+    Postures of passage 0 that collide (themselves or the motion to a neighbour:
+    shank or holder nearer than ``clearance_mm``, the cutter into the part) or start
+    an A/C reversal are dropped from the swarf cut (their postures are fixed by the
+    deviation, so neither the eq. 7 remedy nor the smoothing may move them), the runs
+    are split there and checked again, up to ``_CHECK_ROUNDS`` times; dropped rulings
+    are left to point milling (``swarf_or_point``). The other passages are rotations
+    of passage 0, checked again.
 
     Parameters
     ----------
@@ -160,37 +199,46 @@ def plan_swarf(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     -------
     FinishResult
         Paths of operation ``"swarf"``; ``extra["swarf"]``: the report
-        (``swarf_report``) and ``extra["swarf_walls"]``: the walls.
+        (``swarf_report``); ``extra["swarf_walls"]``: the walls with the dropped
+        rulings no longer cuttable; ``extra["swarf_dropped"]``: rulings dropped per
+        wall label.
     """
     walls = swarf_walls(surfaces, tool, options) if walls is None else walls
-    base: list[tuple[CutterPath, Array, Array]] = []
+    checked: list[SwarfWall] = []
+    first: list[PathResult] = []
+    dropped: dict[str, int] = {}
     for sw in walls:
-        post = sw.result.postures
-        normal = sw.wall.blade.side_normal(sw.blade_u, np.full(len(sw.blade_u), 0.5),
-                                           sw.wall.side)
-        for j, run in enumerate(_runs(sw.result.cuttable)):
-            centre = post.tips[run] + tool.radius * post.axes[run]
-            path = CutterPath(
-                name=f"p0.swarf.{sw.wall.label}.{j:02d}", operation="swarf", passage=0,
-                centre=centre, normal=normal[run], reference_axis=post.axes[run],
-                away=normal[run], opposite_tip=centre.copy(),
-                curve_u=sw.wall.curve_u(sw.blade_u[run]), wall=sw.wall)
-            base.append((path, post.tips[run], post.axes[run]))
+        cut = np.array(sw.result.cuttable, dtype=bool, copy=True)
+        results: list[PathResult] = []
+        for _ in range(_CHECK_ROUNDS):
+            results, changed = [], False
+            for path, tip, axis, run in _wall_passes(sw, cut, tool):
+                res = _path_result(path, tip, axis, tool, kins, scene, options)
+                bad = _blocked(res)
+                if bad.any():
+                    cut[run[bad]] = False
+                    changed = True
+                results.append(res)
+            if not changed:
+                break
+        dropped[sw.wall.label] = int(sw.result.cuttable.sum() - cut.sum())
+        checked.append(SwarfWall(sw.wall, replace(sw.result, cuttable=cut), sw.blade_u))
+        first += results
     blades = surfaces.spec.blades
     count = blades if options.passages is None else min(options.passages, blades)
-    results: list[PathResult] = []
-    for k in range(count):
-        for path, tip, axis in base:
-            if k:
-                path = rotate_path(path, k, surfaces.spec.pitch)
-                axis = path.reference_axis
-                tip = np.asarray(path.centre - tool.radius * axis)
-            results.append(_path_result(path, tip, axis, tool, kins, scene, options))
+    out = list(first)
+    for k in range(1, count):
+        for res0 in first:
+            path = rotate_path(res0.path, k, surfaces.spec.pitch)
+            axis = path.reference_axis
+            tip = np.asarray(path.centre - tool.radius * axis)
+            out.append(_path_result(path, tip, axis, tool, kins, scene, options))
             if progress is not None:
-                progress(len(results), count * len(base), path.name)
-    return FinishResult(results, tool, options, scene_source,
-                        extra={"swarf": swarf_report(walls, results),
-                               "swarf_walls": walls})
+                progress(len(out), count * len(first), path.name)
+    return FinishResult(out, tool, options, scene_source,
+                        extra={"swarf": {**swarf_report(checked, out),
+                                         "dropped_rulings": dropped},
+                               "swarf_walls": checked, "swarf_dropped": dropped})
 
 
 def swarf_report(walls: list[SwarfWall], results: list[PathResult]) -> dict[str, Any]:
