@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cam.collision.scene import PostureReport
 from cam.finishing.options import FinishOptions, scallop_stepover
 from cam.finishing.passes import passage_paths
 from cam.finishing.swarf_plan import SwarfWall, covered_by, swarf_walls
@@ -113,3 +114,50 @@ def test_finish_run_writes_checked_swarf_passes(tmp_path: Path) -> None:
         assert wall["swept_overcut_mm"] <= 0.01 and wall["swept_undercut_mm"] <= 0.03
     entries = [p for p in doc["paths"] if p["operation"] == "swarf"]
     assert all(p["collisions"] == 0 and p["motion_collisions"] == 0 for p in entries)
+
+
+class _WallAhead:
+    """A stand-in collision scene: every posture whose tip lies beyond ``x_max`` (and
+    every motion reaching one) collides; the rest are clear by 5 mm."""
+
+    def __init__(self, x_max: float) -> None:
+        self.x_max = x_max
+
+    def check_postures(self, tool: Tool, tip: np.ndarray, axis: np.ndarray,
+                       **_: object) -> PostureReport:
+        hit = tip[:, 0] > self.x_max
+        return PostureReport(hit, np.where(hit, 1, -1).astype(np.int8),
+                             ["wall" if h else None for h in hit], np.where(hit, 0.0, 5.0))
+
+    def check_motion(self, tool: Tool, tip: np.ndarray, axis: np.ndarray,
+                     **_: object) -> PostureReport:
+        hit = (tip[:-1, 0] > self.x_max) | (tip[1:, 0] > self.x_max)
+        return PostureReport(hit, np.where(hit, 1, -1).astype(np.int8),
+                             ["wall" if h else None for h in hit], np.where(hit, 0.0, 5.0))
+
+
+def test_colliding_swarf_postures_are_dropped(straight: ImpellerSurfaces, tool: Tool,
+                                              walls: list[SwarfWall]) -> None:
+    """Postures that collide leave the swarf cut (and so go to point milling)."""
+    from cam.finishing.swarf_plan import plan_swarf
+    from postproc.kinematics import kinematics_for
+    from postproc.machine import load_machine
+
+    kins = kinematics_for(load_machine(ROOT / "fixtures" / "machines" / "trunnion-500.toml"))
+    x_max = 25.0
+    result = plan_swarf(straight, tool, kins, _WallAhead(x_max),  # type: ignore[arg-type]
+                        FinishOptions(passages=1), scene_source="test", walls=walls)
+    assert result.paths
+    for path in result.paths:
+        assert np.all(path.tip[:, 0] <= x_max)
+        assert not path.interference.collides.any()
+        assert not path.interference.motion_collides.any()
+    checked = result.extra["swarf_walls"]
+    dropped = result.extra["swarf_dropped"]
+    for before, after in zip(walls, checked, strict=True):
+        gone = before.result.cuttable & ~after.result.cuttable
+        assert gone.sum() == dropped[before.wall.label] > 0
+        # beyond the wall, or the last one before it (its motion reaches the wall)
+        assert np.sum(before.result.postures.tips[gone, 0] <= x_max) <= 1
+        assert after.result.area_share < before.result.area_share
+    assert result.extra["swarf"]["collisions"] == 0
