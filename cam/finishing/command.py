@@ -6,6 +6,9 @@ Writes into OUT/ (all or nothing, ``staged_directory``):
   file per operation (workpiece frame, mm, mm/min); with ``fillet_tool`` also
   ``finish_fillet.apt`` (the fillet pencil passes, ``cam.finishing.fillet_plan``),
   and ``finish_edge.apt`` (passes round the blade edges, ``edge_passes`` option);
+  with ``blade_strategy`` ``"swarf"`` or ``"swarf_or_point"`` also ``finish_swarf.apt``
+  (flank passes along the blade rulings, ``cam.finishing.swarf_plan``; finish.json
+  ``swarf``: the predicted deviations per wall and the swarf-cut share of blade area);
 * ``finish.json``: per path the number of points, reverse movements of A and C
   before and after (``reversals_before`` / ``reversals_after``), ``collisions``,
   ``min_clearance_mm``, the largest deviation of the ball centre from its ideal path,
@@ -26,6 +29,7 @@ from __future__ import annotations
 import json
 import math
 from contextlib import nullcontext
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -220,6 +224,23 @@ def _machine_entry(obstacle: MachineObstacle, result: FinishResult,
             "distance_queries": int(stats["distance_queries"])}
 
 
+def _swarf_setup(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
+                 collision: CollisionScene, opts: FinishOptions, scene: str,
+                 report: Any) -> tuple[FinishResult | None, FinishOptions, Any]:
+    """The checked swarf passes (None for ``blade_strategy = "point"``), the options of
+    the point milling (no blade passes for ``"swarf"``) and its ``skip`` of the blade
+    passes the swarf passes cut (``"swarf_or_point"``)."""
+    if opts.blade_strategy == "point":
+        return None, opts, None
+    from cam.finishing.swarf_plan import covered_by, plan_swarf
+
+    flank = plan_swarf(surfaces, tool, kins, collision, opts, scene_source=scene,
+                       progress=report)
+    if opts.blade_strategy == "swarf":
+        return flank, replace(opts, blade_passes=False), None
+    return flank, opts, covered_by(flank.extra["swarf_walls"])
+
+
 def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
                options: FinishOptions | None = None,
                library: str | Path | None = None, scene: str = "solid", plots: bool = True,
@@ -330,10 +351,20 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
             if bar is not None:
                 bar.update(task, completed=done, total=total, description=name)
 
-        result = plan_finishing(surfaces, the_tool, kins, collision, opts,
-                                scene_source=scene, progress=report)
+        flank, plan_opts, skip = _swarf_setup(surfaces, the_tool, kins, collision, opts,
+                                              scene, report)
+        result = plan_finishing(surfaces, the_tool, kins, collision, plan_opts,
+                                scene_source=scene, progress=report, skip=skip)
+        result = FinishResult(result.paths, the_tool, opts, scene)
         toolpaths = finish_toolpaths(result, surfaces, collision, kins)
         tools = {op: the_tool for op in toolpaths}
+        swarf_entry = None
+        if flank is not None:
+            swarf_entry = flank.extra["swarf"]
+            if flank.paths:
+                toolpaths.update(finish_toolpaths(flank, surfaces, collision, kins))
+                tools.update({op: the_tool for op in flank.operations()})
+                result = FinishResult([*result.paths, *flank.paths], the_tool, opts, scene)
         if opts.edge_passes:
             edges = plan_edges(surfaces, the_tool, kins, collision, opts, scene_source=scene,
                                progress=report)
@@ -393,6 +424,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
             "summary": summary,
             "link_collisions": int(sum(link_collisions.values())),
             "machine_model": machine_entry,
+            "swarf": swarf_entry,
             "operations": operations,
             "paths": entries,
         }

@@ -14,7 +14,10 @@ from impeller_cam.errors import InputError
 from impeller_cam.options import options_from_mapping
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
 
-__all__ = ["FinishOptions", "scallop_stepover"]
+__all__ = ["BLADE_STRATEGIES", "FinishOptions", "scallop_stepover"]
+
+#: How the blade sides are finished (``FinishOptions.blade_strategy``).
+BLADE_STRATEGIES = ("point", "swarf", "swarf_or_point")
 
 
 def scallop_stepover(radius: float, scallop: float) -> float:
@@ -143,6 +146,16 @@ class FinishOptions:
         (``edge_paths``; operation ``edge``).
     tessellation_mm : float
         Tessellation of the collision meshes, mm.
+    blade_strategy : str
+        ``"point"``: the blade sides are point milled (the passes above);
+        ``"swarf"``: flank milled along their rulings where the predicted deviation is
+        within the swarf tolerances (operation ``swarf``, cam/finishing/swarf_plan.py),
+        no blade point milling; ``"swarf_or_point"``: the same, and the blade passes
+        not wholly inside the swarf-cut band are point milled.
+    swarf_overcut_mm, swarf_undercut_mm : float
+        Largest predicted overcut and undercut of a swarf-cut ruling, mm.
+    swarf_ruling_step_mm : float
+        Largest distance between consecutive swarf rulings at the blade tip, mm.
     """
 
     point_spacing_mm: float = 0.25
@@ -182,6 +195,10 @@ class FinishOptions:
     hub_passes: bool = True
     edge_passes: bool = True
     tessellation_mm: float = DEFAULT_TOLERANCES.tessellation
+    blade_strategy: str = "point"
+    swarf_overcut_mm: float = 0.01
+    swarf_undercut_mm: float = 0.03
+    swarf_ruling_step_mm: float = 1.0
 
     def __post_init__(self) -> None:
         positive = ("point_spacing_mm", "scallop_mm", "min_normal_angle_deg", "max_lead_deg",
@@ -189,14 +206,15 @@ class FinishOptions:
                     "linear_deadband_mm", "delta_c_deg", "tilt_search_deg",
                     "tilt_search_step_deg", "repair_blend_mm", "motion_step_mm",
                     "motion_step_deg", "retract_clearance_mm", "link_step_deg", "departure_mm",
-                    "tessellation_mm", "stock_voxel_mm")
+                    "tessellation_mm", "stock_voxel_mm", "swarf_ruling_step_mm")
         for name in positive:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise InputError("must be a positive number", field=name, value=value,
                                  accepted="a finite number > 0")
         for name in ("c_tilt_deg", "cutter_allowance_mm", "clearance_mm", "repair_margin_mm",
-                     "feed_link_mm", "stock_clearance_mm"):
+                     "feed_link_mm", "stock_clearance_mm", "swarf_overcut_mm",
+                     "swarf_undercut_mm"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
                 raise InputError("must be a number >= 0", field=name, value=value,
@@ -215,6 +233,9 @@ class FinishOptions:
             raise InputError("must be at most clearance_mm (the clearance from the design)",
                              field="stock_clearance_mm", value=self.stock_clearance_mm,
                              accepted=f"<= {self.clearance_mm:g} mm")
+        if self.blade_strategy not in BLADE_STRATEGIES:
+            raise InputError("unknown blade strategy", field="blade_strategy",
+                             value=self.blade_strategy, accepted=", ".join(BLADE_STRATEGIES))
         if self.smoothing_scope not in ("local", "path"):
             raise InputError("unknown smoothing scope", field="smoothing_scope",
                              value=self.smoothing_scope, accepted="local, path")

@@ -355,14 +355,14 @@ class FinishResult:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def operations(self) -> dict[str, list[PathResult]]:
-        """Paths grouped by operation: junction, blade, hub, fillet (those present).
+        """Paths grouped by operation: junction, blade, swarf, edge, hub, fillet (those present).
 
         Returns
         -------
         dict of str to list of PathResult
         """
         out: dict[str, list[PathResult]] = {}
-        for op in ("junction", "blade", "edge", "hub", "fillet"):
+        for op in ("junction", "blade", "swarf", "edge", "hub", "fillet"):
             members = [p for p in self.paths if p.path.operation == op]
             if members:
                 out[op] = members
@@ -419,8 +419,8 @@ class FinishResult:
 
 def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                    scene: CollisionScene, options: FinishOptions, *, scene_source: str,
-                   progress: Callable[[int, int, str], None] | None = None
-                   ) -> FinishResult:
+                   progress: Callable[[int, int, str], None] | None = None,
+                   skip: Callable[[CutterPath], bool] | None = None) -> FinishResult:
     """Generate and finish every path of every passage (passage 0, then rotations).
 
     Parameters
@@ -436,6 +436,9 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
         Name of the collision meshes' origin (reported).
     progress : callable, optional
         ``progress(done, total, path_name)`` after each path.
+    skip : callable, optional
+        ``skip(path)`` of a passage-0 path: leave it (and its rotations) out (the
+        blade passes a swarf operation cuts, ``swarf_plan.SwarfWall.covered``).
 
     Returns
     -------
@@ -450,6 +453,8 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                          blade=options.blade_passes, hub=options.hub_passes,
                          reach=max(tool.flute_length - tool.radius, 0.0),
                          chordal=options.chordal_tolerance_mm)
+    if skip is not None:
+        base = [p for p in base if not skip(p)]
     blades = surfaces.spec.blades
     count = blades if options.passages is None else min(options.passages, blades)
     ordered: list[CutterPath] = []

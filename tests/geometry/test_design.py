@@ -27,7 +27,7 @@ from geometry.spec import load_spec
 from impeller_cam.errors import InputError
 
 FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "impellers"
-FIXTURE_NAMES = ("nine_blade", "round_te", "small", "splitter")
+FIXTURE_NAMES = ("nine_blade", "round_te", "small", "splitter", "straight")
 #: Half a unit in the 6th decimal written to the files (mm, and deg -> rad).
 WRITTEN_MM = 0.5e-6 + 1e-12
 WRITTEN_RAD = math.radians(0.5e-6) + 1e-12
