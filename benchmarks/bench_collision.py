@@ -320,6 +320,15 @@ def apt_check(folder: Path) -> None:
     spec = Path(document["spec"])
     spec = spec if spec.is_absolute() else ROOT / spec
     scene = CollisionScene(solid_meshes(Impeller(load_spec(spec)), options["tessellation_mm"]))
+    compare_operations(scene, operations, options, str(document["spec"]))
+
+
+def compare_operations(scene: CollisionScene,
+                       operations: list[tuple[str, str, np.ndarray, np.ndarray]],
+                       options: dict[str, Any], label: str) -> None:
+    """Per operation ``(name, tool name, tips (n, 3), axes (n, 3))``: CollisionScene
+    against the plain loop at the options' cap, clearance limit and cutter allowance;
+    prints each and the totals."""
     cap, limit = options["clearance_exact_mm"], options["clearance_mm"]
     allowance = options["cutter_allowance_mm"]
     totals = {"postures": 0, "hits": 0, "differing": 0, "below": 0, "limit": 0}
@@ -350,7 +359,7 @@ def apt_check(folder: Path) -> None:
               f"  largest |fast - fcl| {worst:.2e} mm  lower bound above holds {bound_ok}"
               f"  differing '< {limit:g}' {limit_differ}  CPU fast {c1 - c0:.1f} s,"
               f" plain {c2 - c1:.1f} s", flush=True)
-    print(f"{document['spec']}: {totals['postures']} postures, hits {totals['hits']}, "
+    print(f"{label}: {totals['postures']} postures, hits {totals['hits']}, "
           f"differing hit/miss/part/role {totals['differing']}, clearances below "
           f"{cap:g} mm {totals['below']} (largest |fast - fcl| {worst_all:.2e} mm), above: "
           f"lower bound holds {bound_all}, differing '< {limit:g}' {totals['limit']}")
