@@ -28,10 +28,19 @@ main job's settings: scallop 0.5 mm, spacing 1.5 mm, clearance 2.5 mm, exact up 
 3 mm; all passages or ``--passages N``) and checks every posture of its finished
 paths and every sub-sample of the motions between them both ways: hit/miss,
 part and role compared posture by posture, clearances compared below the cap
-(largest difference) and above it (the lower bound holds). Run:
+(largest difference) and above it (the lower bound holds).
+
+``--apt FOLDER`` checks the finishing a chain wrote (``impeller-cam run``'s
+``finish/``, or ``impeller-cam finish``'s output): every posture of the cutting passes of every
+operation's APT file (junction, blade, edge, hub, fillet; each with its own tool, as
+finish.json names it) and every sub-sample of the motions between them, against the
+design solid's scene of the spec finish.json names, with its options' clearance limit
+and cap; the same comparison as ``--finishing``, per operation and in total. No
+planning is repeated, so this covers the chain's fillet and edge passes too. Run:
 
     .venv/bin/python benchmarks/bench_collision.py [--postures N] [--seed S] [--synthetic | --dense]
     .venv/bin/python benchmarks/bench_collision.py --finishing nine_blade [--finish-tool T]
+    .venv/bin/python benchmarks/bench_collision.py --apt OUT/finish
 """
 
 from __future__ import annotations
@@ -41,6 +50,7 @@ import math
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import trimesh
@@ -263,10 +273,104 @@ def finishing_check(fixture: str, tool_name: str, passages: int | None) -> None:
           f"(wall {w1 - w0:.1f} / {w2 - w1:.1f} s); checks {fast.checks}")
 
 
+def cutting_postures(folder: Path) -> tuple[dict[str, Any], list[tuple[str, str, np.ndarray,
+                                                                        np.ndarray]]]:
+    """finish.json of ``folder`` and, per operation, the tool name and the cutting
+    postures of its APT file with the motions between them sub-sampled.
+
+    A cutting pass is a plunge (approach) target and the feed moves after it; the
+    motion is sub-sampled as the planner checks it (``subdivide_motion`` at the
+    options' ``motion_step_mm`` / ``motion_step_deg``).
+    """
+    import json
+
+    from cam.collision.postures import subdivide_motion
+    from postproc.apt import read_apt
+    from postproc.toolpath import MoveKind
+
+    document = json.loads((folder / "finish.json").read_text())
+    options = document["options"]
+    step_mm, step_rad = options["motion_step_mm"], math.radians(options["motion_step_deg"])
+    out = []
+    for name, op in document["operations"].items():
+        tips, axes = [], []
+        for toolpath in read_apt(folder / op["apt"]):
+            cutting = np.isin(toolpath.kind, (MoveKind.FEED, MoveKind.PLUNGE))
+            # runs of cutting moves: a pass starts at its plunge target
+            edges = np.flatnonzero(np.diff(np.r_[False, cutting, False].astype(np.int8)))
+            for a, b in zip(edges[::2], edges[1::2], strict=True):
+                tip, axis = toolpath.tip[a:b], toolpath.axis[a:b]
+                if len(tip) > 1:
+                    tip, axis, _ = subdivide_motion(tip, axis, step_mm, step_rad)
+                tips.append(tip)
+                axes.append(axis)
+        out.append((name, op["tool"]["name"], np.concatenate(tips), np.concatenate(axes)))
+    return document, out
+
+
+def apt_check(folder: Path) -> None:
+    """Every cutting posture (and motion sub-sample) of a finishing folder's APT files:
+    CollisionScene against the plain loop, per operation with its tool."""
+    from cam.finishing.scene import solid_meshes
+    from geometry.impeller import Impeller
+    from geometry.spec import load_spec
+
+    document, operations = cutting_postures(folder)
+    options = document["options"]
+    spec = Path(document["spec"])
+    spec = spec if spec.is_absolute() else ROOT / spec
+    scene = CollisionScene(solid_meshes(Impeller(load_spec(spec)), options["tessellation_mm"]))
+    compare_operations(scene, operations, options, str(document["spec"]))
+
+
+def compare_operations(scene: CollisionScene,
+                       operations: list[tuple[str, str, np.ndarray, np.ndarray]],
+                       options: dict[str, Any], label: str) -> None:
+    """Per operation ``(name, tool name, tips (n, 3), axes (n, 3))``: CollisionScene
+    against the plain loop at the options' cap, clearance limit and cutter allowance;
+    prints each and the totals."""
+    cap, limit = options["clearance_exact_mm"], options["clearance_mm"]
+    allowance = options["cutter_allowance_mm"]
+    totals = {"postures": 0, "hits": 0, "differing": 0, "below": 0, "limit": 0}
+    worst_all, bound_all = 0.0, True
+    for name, tool_name, tip, axis in operations:
+        tool = resolve_tool(tool_name)
+        c0 = time.process_time()
+        fast = scene.check_postures(tool, tip, axis, cutter_allowance=allowance,
+                                    clearance_cap=cap, clearance_limits=(limit,))
+        c1 = time.process_time()
+        plain = plain_fcl_check(scene, tool, tip, axis, cutter_allowance=allowance)
+        c2 = time.process_time()
+        differ = int(np.sum((fast.collides != plain.collides) | (fast.part != plain.part))
+                     + sum(a != b for a, b in zip(fast.hit_role, plain.hit_role, strict=True)))
+        below = plain.clearance < cap
+        worst = float(np.max(np.abs(fast.clearance[below] - plain.clearance[below]),
+                             initial=0.0))
+        bound_ok = bool(np.all(fast.clearance[~below] >= cap - 1e-9))
+        limit_differ = int(np.sum((fast.clearance < limit) != (plain.clearance < limit)))
+        for key, value in (("postures", len(tip)), ("hits", int(plain.collides.sum())),
+                           ("differing", differ), ("below", int(below.sum())),
+                           ("limit", limit_differ)):
+            totals[key] += value
+        worst_all, bound_all = max(worst_all, worst), bound_all and bound_ok
+        hits = int(plain.collides.sum())
+        print(f"{name:9s} {tool.name:12s} postures {len(tip):7d}  hits {hits:4d}"
+              f"  differing hit/miss/part/role {differ}  below {cap:g} mm {int(below.sum()):6d}"
+              f"  largest |fast - fcl| {worst:.2e} mm  lower bound above holds {bound_ok}"
+              f"  differing '< {limit:g}' {limit_differ}  CPU fast {c1 - c0:.1f} s,"
+              f" plain {c2 - c1:.1f} s", flush=True)
+    print(f"{label}: {totals['postures']} postures, hits {totals['hits']}, "
+          f"differing hit/miss/part/role {totals['differing']}, clearances below "
+          f"{cap:g} mm {totals['below']} (largest |fast - fcl| {worst_all:.2e} mm), above: "
+          f"lower bound holds {bound_all}, differing '< {limit:g}' {totals['limit']}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--finishing", default=None, help="fixture: check its finishing")
     parser.add_argument("--finish-tool", default="ball6_taper")
+    parser.add_argument("--apt", default=None, type=Path,
+                        help="a finishing folder (finish.json + APT files): check its postures")
     parser.add_argument("--passages", type=int, default=None, help="--finishing: passages")
     parser.add_argument("--postures", type=int, default=20000)
     parser.add_argument("--seed", type=int, default=7)
@@ -281,6 +385,9 @@ def main() -> None:
         help="the synthetic impeller tessellated finely (about 512k triangles) instead",
     )
     args = parser.parse_args()
+    if args.apt is not None:
+        apt_check(args.apt)
+        return
     if args.finishing:
         finishing_check(args.finishing, args.finish_tool, args.passages)
         return
