@@ -419,7 +419,8 @@ class FinishResult:
 
 def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                    scene: CollisionScene, options: FinishOptions, *, scene_source: str,
-                   progress: Callable[[int, int, str], None] | None = None
+                   progress: Callable[[int, int, str], None] | None = None,
+                   before: Callable[[list[CutterPath]], object] | None = None
                    ) -> FinishResult:
     """Generate and finish every path of every passage (passage 0, then rotations).
 
@@ -436,6 +437,9 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
         Name of the collision meshes' origin (reported).
     progress : callable, optional
         ``progress(done, total, path_name)`` after each path.
+    before : callable, optional
+        Called with every path of every passage before any is finished (a quick
+        check that may refuse the job: ``machine_reach.check_machine_reach``).
 
     Returns
     -------
@@ -457,6 +461,8 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
         for k in range(count):
             ordered += [p if k == 0 else rotate_path(p, k, surfaces.spec.pitch)
                         for p in base if p.operation == op]
+    if before is not None:
+        before(ordered)
     results: list[PathResult] = []
     # the same path in the previous passage: its remedy step is tried first (proven
     # before it is used, so the result is the same as without it)
