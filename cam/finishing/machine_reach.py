@@ -41,6 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam.finishing.options import FinishOptions
+from cam.finishing.plan import _inverse, remove_reversals
 from cam.finishing.posture import c_max, enforce_normal_angle, initial_axes, rotate_about_z
 from cam.finishing.repair import cone_axes
 from cam.verify.machine_query import MachineClearance
@@ -117,8 +118,6 @@ def starting_axes(path: CutterPath, tool: Tool, kins: Any, options: FinishOption
                   ) -> tuple[Array, float]:
     """The planner's starting axes of a path (``plan._finish_once`` before the remedy)
     and the sense of its C turn."""
-    from cam.finishing.plan import _inverse, remove_reversals
-
     axis0, sign = initial_axes(path.reference_axis, path.away,
                                math.radians(options.c_tilt_deg))
     axis0, _ = enforce_normal_angle(axis0, path.normal, path.tangent,
