@@ -30,6 +30,7 @@ import json
 import math
 from contextlib import nullcontext
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -41,6 +42,7 @@ from cam.finishing.edge_plan import plan_edges
 from cam.finishing.fillet_plan import check_fillet_tool, plan_fillet
 from cam.finishing.linking import Envelope, Linker, LinkRules
 from cam.finishing.machine_obstacle import MachineObstacle, operation_clearance
+from cam.finishing.machine_reach import check_machine_reach
 from cam.finishing.options import FinishOptions
 from cam.finishing.order import ordered_passes
 from cam.finishing.plan import FinishResult, plan_finishing
@@ -195,7 +197,7 @@ def _machine_obstacle(model: Any, kins: Kinematics, scene: CollisionScene,
                       the_stock: Stock | None, spec: str | Path) -> MachineObstacle:
     """The scene with the machine model as an obstacle; the part's solid from the
     in-process stock, else from the spec's blank (cast at ``BLANK_PITCH``)."""
-    from cam.verify.machine_check import part_solid
+    from cam.verify.machine_scene import part_solid
     from cam.verify.sources import load_stock
 
     source = the_stock if the_stock is not None else load_stock(str(spec), BLANK_PITCH)
@@ -353,8 +355,10 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
 
         flank, plan_opts, skip = _swarf_setup(surfaces, the_tool, kins, collision, opts,
                                               scene, report)
+        reach = None if obstacle is None else partial(
+            check_machine_reach, obstacle, the_tool, options=opts, machine=str(machine))
         result = plan_finishing(surfaces, the_tool, kins, collision, plan_opts,
-                                scene_source=scene, progress=report, skip=skip)
+                                scene_source=scene, progress=report, skip=skip, before=reach)
         result = FinishResult(result.paths, the_tool, opts, scene)
         toolpaths = finish_toolpaths(result, surfaces, collision, kins)
         tools = {op: the_tool for op in toolpaths}

@@ -34,8 +34,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from cam.collision import PART_NAMES, CollisionScene
 from cam.collision.scene import PostureReport
-from cam.verify.machine_check import machine_scene
 from cam.verify.machine_query import MachineClearance, joint_path_samples
+from cam.verify.machine_scene import machine_scene
 
 if TYPE_CHECKING:
     from cam.tools import Tool
@@ -66,7 +66,7 @@ class MachineObstacle(CollisionScene):
     kins : TableTiltingRotary
         The machine's kinematics.
     part : Solid
-        The part's solid as the verifier builds it (``machine_check.part_solid``).
+        The part's solid as the verifier builds it (``machine_scene.part_solid``).
     margin : float, optional
         Extra distance kept beyond every pair's clearance, mm (default ``step / 2``).
     """

@@ -420,7 +420,9 @@ class FinishResult:
 def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                    scene: CollisionScene, options: FinishOptions, *, scene_source: str,
                    progress: Callable[[int, int, str], None] | None = None,
-                   skip: Callable[[CutterPath], bool] | None = None) -> FinishResult:
+                   skip: Callable[[CutterPath], bool] | None = None,
+                   before: Callable[[list[CutterPath]], object] | None = None
+                   ) -> FinishResult:
     """Generate and finish every path of every passage (passage 0, then rotations).
 
     Parameters
@@ -439,6 +441,9 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     skip : callable, optional
         ``skip(path)`` of a passage-0 path: leave it (and its rotations) out (the
         blade passes a swarf operation cuts, ``swarf_plan.SwarfWall.covered``).
+    before : callable, optional
+        Called with every path of every passage before any is finished (a quick
+        check that may refuse the job: ``machine_reach.check_machine_reach``).
 
     Returns
     -------
@@ -462,6 +467,8 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
         for k in range(count):
             ordered += [p if k == 0 else rotate_path(p, k, surfaces.spec.pitch)
                         for p in base if p.operation == op]
+    if before is not None:
+        before(ordered)
     results: list[PathResult] = []
     # the same path in the previous passage: its remedy step is tried first (proven
     # before it is used, so the result is the same as without it)

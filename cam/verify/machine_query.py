@@ -6,7 +6,7 @@ keep every checked pair of the machine's solids its clearance, and by how much?"
 ``MachineClearance`` answers them for joint vectors ``(n, 5)`` with the verifier's own
 scene (``MachineScene``: the machine's solids, the job's tool, holder, part and
 fixture, the checked pairs and their clearances) and the verifier's own exact
-distance (``machine_check._distance``: fcl on the same objects), so a pose gets the
+distance (``machine_scene._distance``: fcl on the same objects), so a pose gets the
 same distance in planning and in verification.
 
 Cost: per pair, lower bounds for all poses at once - the bounding spheres'
@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cam.verify.machine_check import MachineScene, _distance, _radii
+from cam.verify.machine_scene import MachineScene, _distance, _radii
 from postproc.machine_model import TOOL_SIDE, Solid, group_poses
 
 __all__ = ["Clearances", "MachineClearance", "joint_path_samples"]
@@ -88,7 +88,7 @@ class MachineClearance:
     Parameters
     ----------
     scene : MachineScene
-        From ``machine_check.machine_scene`` (the tool, holder, part and fixture
+        From ``machine_scene.machine_scene`` (the tool, holder, part and fixture
         solids are the verifier's).
     kins : TableTiltingRotary
         The machine's kinematics.

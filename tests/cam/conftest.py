@@ -5,11 +5,12 @@ coarse settings, once per test run (shared by the xdist workers; about 2 minutes
 one core); returns the output folder. It runs on ``CHAIN_MACHINE``: trunnion-500's
 kinematics, limits and servo data without its ``[model]`` tables. With the machine
 model the small part cannot be finished on that machine with the library's short
-tools (ball6 110 mm, ball4_taper 125 mm gauge length: at A -78 and -96 deg the 500 mm
-head meets the platter), and planning around the model grinds through every
-posture for many minutes before it names them (issue 29, left open). The machine
-model's planning and verification on the small chain are tested on xyzac-trt, where
-the part fits (``tests/cam/run/test_machine_chain.py``). Other tests (the report)
+tools (ball6 110 mm, ball4_taper 125 mm gauge length: at A -82 to -96 deg the 500 mm
+head meets the platter and the shank the mandrel nut): the finish stage refuses it
+before planning (``cam.finishing.machine_reach``, tested in
+``tests/cam/test_machine_reach.py``), and the report tests need every stage done.
+The machine model's planning and verification on the small chain are tested on
+xyzac-trt, where the part fits (``tests/cam/run/test_machine_chain.py``). Other tests (the report)
 read its files; they must not modify them. When ``cam.report`` is not in this build the report stage
 fails (as it should) and the fixture still returns the folder with every other stage
 done.

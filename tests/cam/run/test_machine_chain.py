@@ -2,7 +2,8 @@
 
 On LinuxCNC's sim xyzac-trt (the vismach model's sizes) the small chain runs up to
 the verify stage (slow). (On trunnion-500 the small part does not fit with the
-library's short tools: ``tests/cam/conftest.py``.)
+library's short tools: the finish stage refuses it before planning,
+``tests/cam/test_machine_reach.py``.)
 Planning and verification agree: the smallest clearance finishing planned per
 operation is what the verifier measured on the posted program (within the sampling
 step), an operation planning found clean verifies clean, and on xyzac-trt every
