@@ -166,9 +166,11 @@ class DesignDistance:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
         """Signed distance over ``k`` candidates, the ``k``-th centroid distance and the
         picked triangle (``geometry.mesh_query.closest_of_candidates``)."""
+        from cam.verify.stock import default_threads
         from geometry.mesh_query import closest_of_candidates
 
-        far, idx = self.tree.query(p, k=k)
+        # the query is split over the points: the same answers with any thread count
+        far, idx = self.tree.query(p, k=k, workers=default_threads())
         far = np.asarray(far).reshape(len(p), k)[:, -1]
         idx = np.ascontiguousarray(np.asarray(idx, np.int64).reshape(len(p), k))
         signed, tri = closest_of_candidates(np.ascontiguousarray(p), idx, self.triangles,
