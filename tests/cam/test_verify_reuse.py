@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import trimesh
@@ -31,7 +32,7 @@ def test_finish_run_reuses_the_rough_deviation_exactly(tmp_path: Path) -> None:
         "G21 G90 G94", "G0 X-30 Y6 Z15", "G1 Z-4 F300", "G1 X30", "G0 Z15", "M30"]) + "\n")
     stock_stl = _box_stl(tmp_path / "stock.stl", [-20, -20, -10], [20, 20, 0])
     design = _box_stl(tmp_path / "design.stl", [-20, -20, -10], [20, 20, -5])
-    mesh = trimesh.load(design)
+    mesh: Any = trimesh.load(design)
     distance = DesignDistance(np.asarray(mesh.vertices), np.asarray(mesh.faces))
     stock = Stock.box(np.array([-20.0, -20, -10]), np.array([20.0, 20, 0]), 0.25)
     rough = run_verify([tmp_path / "rough.ngc"], MACHINE, "ball6", str(stock_stl), design,
