@@ -3,8 +3,9 @@
 The verify stage (``cam.run.verification.verify_chain``) of a chain output folder whose
 ``post`` stage is done runs in a child process per checkout (``PYTHONPATH`` and the
 working directory set to it), each into its own folder (symbolic links to the
-folder's ``geometry``, ``rough``, ``finish`` and ``nc``), so the old code and the new
-see the same NC programs. In the child, named functions are wrapped with timers
+folder's ``geometry``, ``rough``, ``finish`` and ``nc``, and a copy of the finish
+stage's ``verify/rough``, which the stage reuses as in the main job), so the old code
+and the new see the same NC programs. In the child, named functions are wrapped with timers
 (wall and process CPU seconds, all threads; a function the checkout does not have is
 skipped), per verification run (``rough``, ``finish``) where they run inside one:
 
@@ -31,6 +32,7 @@ import argparse
 import functools
 import json
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -159,6 +161,11 @@ def run_checkout(name: str, checkout: Path, source: Path, work: Path,
             link.write_text((source / item).read_text())
         elif not link.exists():
             link.symlink_to((source / item).resolve())
+    # the finish stage's rough verification, which the stage reuses as the main job
+    # does (a fresh copy: the stage replaces verify/ as a whole)
+    if (source / "verify" / "rough" / "verify.json").is_file():
+        shutil.rmtree(out / "verify", ignore_errors=True)
+        shutil.copytree(source / "verify" / "rough", out / "verify" / "rough")
     env = {**os.environ, "PYTHONPATH": str(checkout)}
     code = ("import json, sys; from pathlib import Path; "
             f"sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); "

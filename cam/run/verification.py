@@ -111,7 +111,8 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
             finish, ctx.machine, finish_tools, str(ctx.out / "verify" / "rough" / "stock.npz"),
             ctx.spec, resolution, stage / "finish",
             options=VerifyOptions(allowance=allow["finish"], render_each_program=False),
-            progress=False, design_distance=design.distance, initial_stock=stock)
+            progress=False, design_distance=design.distance, initial_stock=stock,
+            previous=rough_deviation)
         assert rough_deviation is not None and finish_deviation is not None
         regions = {
             "format": "impeller-cam regions 2",

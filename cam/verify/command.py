@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cam.verify.deviation import DesignDistance, Deviation, grouped_extremes
+from cam.verify.deviation import DesignDistance, Deviation, grouped_extremes, sample_deviation
 from cam.verify.events import EVENT_TYPES, Event, sort_events
 from cam.verify.machine_check import (
     check_program,
@@ -236,6 +236,7 @@ def run_verify(
     progress: bool | None = None,
     design_distance: DesignDistance | None = None,
     initial_stock: Stock | None = None,
+    previous: Deviation | None = None,
 ) -> Deviation | None:
     """Verify NC programs in sequence on one stock; write the results into ``out``.
 
@@ -269,6 +270,10 @@ def run_verify(
         the final state (the chain hands the stock its rough run left to its finish
         run instead of saving and loading it). ``stock`` then only names it in
         verify.json.
+    previous : Deviation, optional
+        The deviation of ``initial_stock`` as it was handed in (what the run that left
+        it returned): the ends no program of this run changes keep its distances
+        (``cam.verify.deviation.sample_deviation``), the same answers, queried once.
 
     Returns
     -------
@@ -317,6 +322,7 @@ def run_verify(
         # a saved state was checked when its own initial stock was
         events.extend(_short_stock(work, distance, opts, programs[0].name, stock))
     owners: list[tuple[str, int]] = list(work.owners)  # blocks of earlier runs first
+    earlier = len(owners)
     summaries: list[dict[str, Any]] = []
     images: list[tuple[str, bytes]] = []
     renders: dict[str, bytes] = {}
@@ -371,8 +377,8 @@ def run_verify(
     if distance is not None:
         allowance = opts.allowance if opts.allowance is not None else (spec_allowance or 0.0)
         points, _, moves_of = work.surface_samples()
-        signed, closest_face = distance.closest(points)
-        deviation = Deviation(points, signed, moves_of, closest_face)
+        deviation = sample_deviation(points, moves_of, distance,
+                                    previous if initial_stock is not None else None, earlier)
         deviation_summary = deviation.summary()
         deviation_summary["allowance_mm"] = allowance
         found = _deviation_events(

@@ -25,6 +25,12 @@ Stock surface samples are the dexel interval ends of all three grids (exact poin
 of the machined surface along each ray). Each end carries the index of the move that
 made it, so a gouge is reported at the NC line of the block that cut it.
 
+A stock that continues an earlier run's (the chain's finish run on the rough run's
+stock) keeps every end the earlier run left and no later move touched, with the same
+point and move id: ``sample_deviation`` with the earlier ``Deviation`` takes those
+ends' distances and faces from it (``matched_samples``: an exact match of the point,
+so the answer is the one the query would give) and queries only the others.
+
 Limitation: a cut that removes a whole dexel interval inside the design (cutting
 through a thin wall) leaves no end to sample on that ray; the neighbouring rays and
 the other two grids still see the walls of the cut.
@@ -36,6 +42,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
@@ -159,9 +166,11 @@ class DesignDistance:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
         """Signed distance over ``k`` candidates, the ``k``-th centroid distance and the
         picked triangle (``geometry.mesh_query.closest_of_candidates``)."""
+        from cam.verify.stock import default_threads
         from geometry.mesh_query import closest_of_candidates
 
-        far, idx = self.tree.query(p, k=k)
+        # the query is split over the points: the same answers with any thread count
+        far, idx = self.tree.query(p, k=k, workers=default_threads())
         far = np.asarray(far).reshape(len(p), k)[:, -1]
         idx = np.ascontiguousarray(np.asarray(idx, np.int64).reshape(len(p), k))
         signed, tri = closest_of_candidates(np.ascontiguousarray(p), idx, self.triangles,
@@ -221,3 +230,98 @@ def grouped_extremes(
     firsts = np.flatnonzero(np.r_[True, keys_sorted[1:] != keys_sorted[:-1]])
     picked = where[order[firsts]]
     return [(int(key[i]), int(i), float(value[i])) for i in picked]
+
+
+@njit(cache=True)
+def _match(old_points, old_moves, points, moves, earlier):  # type: ignore[no-untyped-def]
+    """Index into ``old_points`` of each sample in ``points`` made before ``earlier``
+    (move id < ``earlier``) whose point and move id are found there, in order; -1
+    elsewhere (a greedy subsequence match: the unchanged ends keep their order; after
+    a sample that is not found, which is not expected, the rest are left to the
+    query, so the scan stays linear)."""
+    n = points.shape[0]
+    m = old_points.shape[0]
+    out = np.full(n, -1, np.int64)
+    j = 0
+    for i in range(n):
+        if moves[i] >= earlier:
+            continue
+        x = points[i, 0]
+        y = points[i, 1]
+        z = points[i, 2]
+        k = j
+        while k < m and not (old_points[k, 0] == x and old_points[k, 1] == y
+                             and old_points[k, 2] == z and old_moves[k] == moves[i]):
+            k += 1
+        if k == m:  # not there (not expected): the rest are queried
+            break
+        out[i] = k
+        j = k + 1
+    return out
+
+
+def matched_samples(previous: Deviation, points: NDArray[np.float64],
+                    moves: NDArray[np.int32], earlier: int) -> NDArray[np.int64]:
+    """Samples of a later stock state that an earlier ``Deviation`` already measured.
+
+    Parameters
+    ----------
+    previous : Deviation
+        The deviation of an earlier state of the same stock (same grids), samples in
+        ``Stock.surface_samples`` order.
+    points : (n, 3) float64
+        The later state's samples, mm, in the same order.
+    moves : (n,) int32
+        Move id of each (ids below ``earlier`` were made before the later run).
+    earlier : int
+        Number of moves (owners) of the stock when ``previous`` was measured.
+
+    Returns
+    -------
+    (n,) int64
+        Index into ``previous`` of the sample with the identical point and move id;
+        -1 where there is none (a new end: to be queried).
+    """
+    return np.asarray(_match(
+        np.ascontiguousarray(previous.points, np.float64),
+        np.ascontiguousarray(previous.moves, np.int64),
+        np.ascontiguousarray(points, np.float64), np.ascontiguousarray(moves, np.int64),
+        int(earlier)))
+
+
+def sample_deviation(points: NDArray[np.float64], moves: NDArray[np.int32],
+                    distance: DesignDistance, previous: Deviation | None = None,
+                    earlier: int = 0) -> Deviation:
+    """Signed design distance and closest face of stock surface samples.
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+        ``Stock.surface_samples`` points, mm.
+    moves : (n,) int32
+        Their move ids.
+    distance : DesignDistance
+    previous : Deviation, optional
+        The deviation of an earlier state of this stock, with faces: the samples it
+        holds unchanged (``matched_samples``) are taken from it, not queried.
+    earlier : int
+        Owners of the stock when ``previous`` was measured.
+
+    Returns
+    -------
+    Deviation
+        The same as ``Deviation(points, *distance.closest(points)...)``.
+    """
+    if previous is None or previous.faces is None or not len(points):
+        signed, face = distance.closest(points)
+        return Deviation(points, signed, moves, face)
+    found = matched_samples(previous, points, moves, earlier)
+    hit = found >= 0
+    signed = np.empty(len(points))
+    face = np.empty(len(points), np.int64)
+    signed[hit] = previous.distance[found[hit]]
+    face[hit] = previous.faces[found[hit]]
+    todo = np.flatnonzero(~hit)
+    if len(todo):
+        signed[todo], face[todo] = distance.closest(points[todo])
+    return Deviation(points, signed, moves, face)

@@ -20,7 +20,7 @@ vertex of a closed mesh counts exactly one crossing.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 from numpy.typing import NDArray
 
 from cam.verify.raycast import _edge, _top_left
@@ -63,11 +63,12 @@ def _bucket(ti, tj, origin_i, origin_j, h, ni, nj):  # type: ignore[no-untyped-d
     return start, index
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def _parity(ti, tj, tk, start, index, origin_i, origin_j, h, ni, nj,
             pi, pj, pk, out):  # type: ignore[no-untyped-def]
-    """Parity (0/1) of the crossings of the ray from each point along +k."""
-    for p in range(pi.shape[0]):
+    """Parity (0/1) of the crossings of the ray from each point along +k (points split
+    over the threads: each answer is its own)."""
+    for p in prange(pi.shape[0]):
         a = int((pi[p] - origin_i) / h)
         b = int((pj[p] - origin_j) / h)
         if a < 0 or b < 0 or a >= ni or b >= nj:

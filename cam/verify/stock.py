@@ -52,8 +52,9 @@ def _grid_frame(
     return origin, (n_a, n_b), ca, cb
 
 
-def _default_threads() -> int:
-    """Threads for a sweep: ``IMPELLER_CAM_THREADS`` or the CPUs this process may use."""
+def default_threads() -> int:
+    """Threads for a sweep or a distance query: ``IMPELLER_CAM_THREADS`` or the CPUs this
+    process may use."""
     env = os.environ.get("IMPELLER_CAM_THREADS", "")
     if env.isdigit() and int(env) > 0:
         return int(env)
@@ -119,7 +120,7 @@ class Stock:
         self.lower = np.asarray(lower, dtype=np.float64)
         self.upper = np.asarray(upper, dtype=np.float64)
         self.owners: list[tuple[str, int]] = []
-        #: Threads of a sweep (one grid each; None: ``_default_threads``). The grids
+        #: Threads of a sweep (one grid each; None: ``default_threads``). The grids
         #: are independent, so the result does not depend on it.
         self.threads: int | None = None
 
@@ -387,7 +388,7 @@ class Stock:
         strides[len(shape.cutter) :] = max(1, int(round(probe_pitch / self.pitch)))
         out = np.zeros((len(tips), 3))
         job = (tips, moves, axes, ids, prims, cuts, strides)
-        threads = self.threads if self.threads is not None else _default_threads()
+        threads = self.threads if self.threads is not None else default_threads()
         if threads > 1 and len(tips) > 1:
             with ThreadPoolExecutor(max_workers=min(threads, 3)) as pool:
                 per_grid = list(pool.map(lambda g: _sweep_grid(g, *job), self.grids))
