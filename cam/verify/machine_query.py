@@ -191,10 +191,10 @@ class MachineClearance:
             if math.isfinite(best) and fresh.any():
                 # the hulls' distance first: rows it lifts to the best drop out
                 centres = self._centres(poses)
-                for k in np.flatnonzero(fresh.any(axis=0)).tolist():
-                    rows = np.flatnonzero(fresh[:, k])
-                    distance[rows, k] = np.maximum(distance[rows, k],
-                                                   self._gap(poses, centres, k, rows, best))
+                for pair in np.flatnonzero(fresh.any(axis=0)).tolist():
+                    rows = np.flatnonzero(fresh[:, pair])
+                    distance[rows, pair] = np.maximum(
+                        distance[rows, pair], self._gap(poses, centres, pair, rows, best))
                 hulled |= fresh
                 continue
             for row, k in zip(*np.nonzero(open_), strict=True):

@@ -63,3 +63,4 @@ def test_a_pruned_gap_stops_at_the_limit_and_stays_a_bound() -> None:
     assert 2.0 <= lower[0] <= 10.0 + 1e-9   # true 10 (box top at 5, sphere bottom at 15)
     assert 2.0 <= lower[1] <= 20.0 + 1e-9
     assert lower[2] == 0.0                  # overlapping
+
