@@ -10,12 +10,11 @@ distance (``machine_check._distance``: fcl on the same objects), so a pose gets 
 same distance in planning and in verification.
 
 Cost: per pair, lower bounds for all poses at once - the bounding spheres'
-``|c_i - c_j| - (r_i + r_j)`` and the distance of the two solids' convex hulls
-(``cam.collision.convex_gap``: GJK from the direction the pair's last exact query
-found between its nearest points, turned with solid ``i``, run until it reaches the
-limit; the vertices' hulls hold the solids, so it is a lower bound, and for the
-model's convex primitives the distance itself) - and fcl only where both are below
-the pair's clearance plus ``cap``.
+``|c_i - c_j| - (r_i + r_j)`` and the gap of the two solids' vertices along the
+direction the pair's last exact query found between its nearest points (turned with
+solid ``i``; any direction gives a lower bound: ``min n.b - max n.a <= |b - a|``,
+and the vertices' hulls hold the solids) - and fcl only where both are below the
+pair's clearance plus ``cap``.
 Along a sequence of poses (a path, a link) the exact distance ``d`` of a pair at one
 pose bounds it at the next ones by ``d - motion`` (conservative advancement, the
 motion bound ``|delta centre| + rho * delta angle`` of both solids as in the
@@ -36,7 +35,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cam.collision.convex_gap import placed_gaps, sequence_gaps
 from cam.verify.machine_check import MachineScene, _distance, _radii
 from postproc.machine_model import TOOL_SIDE, Solid, group_poses
 
@@ -44,10 +42,8 @@ __all__ = ["Clearances", "MachineClearance", "joint_path_samples"]
 
 Array = NDArray[np.float64]
 TOOL_SIDE_GROUPS = frozenset(TOOL_SIDE)
-#: A hull gap counts as reaching a limit only this far above it (fcl's rounding), mm.
-HULL_SAFETY = 1e-6
-#: Width at which the hull-gap interval counts as converged, mm.
-HULL_TOLERANCE = 1e-7
+#: Rows whose witness gap is computed at once.
+_GAP_BLOCK = 256
 
 
 @dataclass
@@ -122,10 +118,7 @@ class MachineClearance:
         self.radius = np.array([s.radius for s in scene.solids])
         self.centre = np.array([s.centre for s in scene.solids])
         self.rho = _radii(scene, kins)
-        self.support = [np.ascontiguousarray(_hull_vertices(s)) for s in scene.solids]
-        self._verts = np.ascontiguousarray(np.vstack(self.support), np.float64)
-        self._offsets = np.concatenate([[0], np.cumsum([len(v) for v in self.support])]
-                                       ).astype(np.int64)
+        self.support = [_hull_vertices(s) for s in scene.solids]
         self._first = np.array([i for i, _, _ in self.pairs], dtype=np.intp)
         self._second = np.array([j for _, j, _ in self.pairs], dtype=np.intp)
         self._reach = self.radius[self._first] + self.radius[self._second]
@@ -157,7 +150,9 @@ class MachineClearance:
             distance[:] = np.maximum(bound, 0.0)
             close = np.flatnonzero((bound < (self.clearance + cap)[None, :]).any(axis=0))
             if close.size:
-                self._close_pairs(joints, poses, centres, close, cap, distance, exact)
+                moved = self._motion(joints, centres)
+                for k in close.tolist():
+                    distance[:, k], exact[:, k] = self._pair(poses, centres, moved, k, cap)
         self.poses += n
         self.seconds += time.process_time() - started
         return Clearances(distance, exact, self.clearance, self.names)
@@ -166,8 +161,8 @@ class MachineClearance:
         """The smallest exact distance of any checked pair over ``joints`` (n, 5).
 
         Returns ``(distance mm, pair names, row)``; ``(inf, ("", ""), -1)`` without
-        poses or pairs. Poses whose lower bound (the hulls' distance, ``_gap``) is below
-        the best distance found so far are measured until none is left.
+        poses or pairs. Poses whose lower bound is below the best distance found so
+        far are measured until none is left.
         """
         result = self.query(joints)
         if not result.distance.size:
@@ -176,7 +171,6 @@ class MachineClearance:
         distance, exact = result.distance, result.exact
         joints = np.asarray(joints, dtype=np.float64).reshape(-1, 5)
         poses = None
-        hulled = np.zeros(distance.shape, dtype=bool)
         while True:
             known = np.where(exact, distance, math.inf)
             best = float(known.min())
@@ -187,16 +181,6 @@ class MachineClearance:
                 break
             if poses is None:
                 poses = group_poses(self.kins, joints, self.scene.gauge, self.scene.tilt)
-            fresh = open_ & ~hulled
-            if math.isfinite(best) and fresh.any():
-                # the hulls' distance first: rows it lifts to the best drop out
-                centres = self._centres(poses)
-                for pair in np.flatnonzero(fresh.any(axis=0)).tolist():
-                    rows = np.flatnonzero(fresh[:, pair])
-                    distance[rows, pair] = np.maximum(
-                        distance[rows, pair], self._gap(poses, centres, pair, rows, best))
-                hulled |= fresh
-                continue
             for row, k in zip(*np.nonzero(open_), strict=True):
                 i, j, _ = self.pairs[int(k)]
                 distance[row, k] = _distance(self.scene, poses, i, j, int(row))
@@ -267,24 +251,22 @@ class MachineClearance:
                 moved[1:, k] += solid.radius * turn.sum(axis=1)
         return moved
 
-    def _gap(self, poses: dict[str, Any], centres: Array, k: int, rows: NDArray[np.intp],
-             limit: float) -> Array:
-        """Certified lower bound of pair ``k``'s distance at ``rows``, mm: the distance of
-        the two solids' hulls (``convex_gap.placed_gaps``, from the pair's witness
-        direction, else the centres'), run until it reaches ``limit`` and lowered by
-        ``HULL_SAFETY`` (rounding: a value at or above ``limit`` is one fcl would give)."""
+    def _gap(self, poses: dict[str, Any], k: int, rows: NDArray[np.intp]) -> Array:
+        """Gap of pair ``k``'s vertices along its witness direction at ``rows``, mm."""
         i, j, _ = self.pairs[k]
-        rot_a, trans_a = poses[self.scene.solids[i].group]
-        rot_b, trans_b = poses[self.scene.solids[j].group]
-        rot_a, rot_b = np.ascontiguousarray(rot_a[rows]), np.ascontiguousarray(rot_b[rows])
-        witness = self.witness.get(k)
-        guess = (rot_a @ witness if witness is not None
-                 else centres[rows, j] - centres[rows, i])
-        lower, _, _ = placed_gaps(self.support[i], rot_a, np.ascontiguousarray(trans_a[rows]),
-                                  self.support[j], rot_b, np.ascontiguousarray(trans_b[rows]),
-                                  np.ascontiguousarray(guess), limit + HULL_SAFETY,
-                                  HULL_TOLERANCE)
-        return np.asarray(lower - HULL_SAFETY)
+        a, b = self.scene.solids[i], self.scene.solids[j]
+        out = np.empty(len(rows))
+        for lo in range(0, len(rows), 2048):
+            r = rows[lo:lo + 2048]
+            n = poses[a.group][0][r] @ self.witness[k]  # (m, 3) machine frame
+            proj = []
+            for solid, verts in ((a, self.support[i]), (b, self.support[j])):
+                rot, trans = poses[solid.group]
+                local = np.einsum("mji,mj->mi", rot[r], n)
+                proj.append((local @ verts.T, np.einsum("mi,mi->m", n, trans[r])))
+            out[lo:lo + 2048] = (proj[1][0].min(axis=1) + proj[1][1]
+                                 - proj[0][0].max(axis=1) - proj[0][1])
+        return out
 
     def _exact(self, poses: dict[str, Any], k: int, s: int) -> float:
         """fcl distance of pair ``k`` at row ``s``; keeps its witness direction."""
@@ -299,33 +281,65 @@ class MachineClearance:
                 self.witness[k] = poses[self.scene.solids[i].group][0][s].T @ (n / norm)
         return d
 
-    def _close_pairs(self, joints: Array, poses: dict[str, Any], centres: Array,
-                     close: NDArray[np.intp], cap: float, distance: Array,
-                     exact: NDArray[np.bool_]) -> None:
-        """Pairs ``close`` over the sequence into ``distance`` and ``exact`` (in place).
+    def _pair(self, poses: dict[str, Any], centres: Array, moved: Array, k: int,
+              cap: float) -> tuple[Array, NDArray[np.bool_]]:
+        """One pair over the sequence: distances (exact below ``limit``) and the mask.
 
-        One compiled pass (``convex_gap.sequence_gaps``) per call: per pair and row the
-        sphere bound, the bound carried from the last bounded row (``d - motion``),
-        the hulls' gap from the pair's last separating direction; fcl (``_exact``) only
-        at the rows where all stay below the pair's clearance plus ``cap``.
+        Rows are visited in order; at a row whose sphere bound is below the limit the
+        witness gap (computed for the next ``_GAP_BLOCK`` such rows at once) is tried
+        first, fcl only when it is below the limit too. A bound or distance ``d`` at a
+        row skips the rows up to where the pair's motion since reaches ``d - limit``.
         """
-        n = len(joints)
-        groups = [s.group for s in self.scene.solids]
-        rot = np.stack([np.broadcast_to(poses[g][0], (n, 3, 3)) for g in groups], axis=1)
-        trans = np.stack([np.broadcast_to(poses[g][1], (n, 3)) for g in groups], axis=1)
-        witness = np.array([self.witness.get(int(k), np.zeros(3)) for k in close])
-        lower, flagged = sequence_gaps(
-            self._verts, self._offsets, rot, trans, np.ascontiguousarray(centres),
-            self.radius, self._motion(joints, centres), self._first[close],
-            self._second[close], self.clearance[close] + cap, witness, HULL_SAFETY,
-            HULL_TOLERANCE)
-        distance[:, close] = lower
-        for c, k in enumerate(close.tolist()):
-            if witness[c].any():
-                self.witness[k] = witness[c]
-            for s in np.flatnonzero(flagged[:, c]).tolist():
-                distance[s, k] = self._exact(poses, k, s)
-                exact[s, k] = True
+        i, j, clearance = self.pairs[k]
+        limit = clearance + cap
+        bound = np.linalg.norm(centres[:, i] - centres[:, j], axis=1) \
+            - (self.radius[i] + self.radius[j])
+        cumulative = np.cumsum(moved[:, i] + moved[:, j])
+        n = len(bound)
+        exact = np.zeros(n, dtype=bool)
+        value = np.maximum(bound, 0.0)
+        need = np.flatnonzero(bound < limit)
+        gap = np.full(n, -math.inf)
+        gapped = np.zeros(n, dtype=bool)
+        known_at: list[int] = []
+        known: list[float] = []
+        pos = 0
+        while pos < len(need):
+            s = int(need[pos])
+            if k in self.witness and not gapped[s]:
+                block = need[pos:pos + _GAP_BLOCK]
+                gap[block] = self._gap(poses, k, block)
+                gapped[block] = True
+                value[block] = np.maximum(value[block], gap[block])
+            nxt = s + 1
+            if gap[s] >= limit:
+                d = float(gap[s])  # a lower bound, not measured
+                # and so are the gaps of the need rows after it, up to one below the limit
+                tail = need[pos:]
+                stop = np.flatnonzero(~gapped[tail] | (gap[tail] < limit))
+                nxt = int(tail[stop[0]]) if stop.size else n
+            else:
+                d = self._exact(poses, k, s)
+                exact[s] = True
+                value[s] = d
+            known_at.append(s)
+            known.append(d)
+            if d > limit:  # the pair cannot come within the limit before this row
+                nxt = max(nxt, int(np.searchsorted(cumulative, cumulative[s] + (d - limit),
+                                                   side="right")))
+            pos = int(np.searchsorted(need, nxt, side="left"))
+        if known_at:
+            # rows after a known one (and not measured): d - motion is a bound too
+            at = np.asarray(known_at)
+            last = np.full(n, -1)
+            last[at] = at
+            last = np.maximum.accumulate(last)
+            has = (last >= 0) & ~exact
+            d_last = np.zeros(n)
+            d_last[at] = known
+            carried = d_last[np.maximum(last, 0)] - (cumulative - cumulative[np.maximum(last, 0)])
+            value = np.where(has, np.maximum(value, carried), value)
+        return value, exact
 
 
 def _hull_vertices(solid: Solid) -> Array:
