@@ -46,7 +46,7 @@ from cam.finishing.machine_reach import check_machine_reach
 from cam.finishing.options import FinishOptions
 from cam.finishing.order import ordered_passes
 from cam.finishing.plan import FinishResult, plan_finishing
-from cam.finishing.plots import plot_angular_displacement
+from cam.finishing.plots import plot_angular_displacements
 from cam.finishing.scene import solid_meshes, surface_meshes
 from cam.finishing.stock_clearance import (
     STOCK_ROLE,
@@ -405,12 +405,13 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                                             "demoted")},
                               "links": links}
         if plots:
+            drawn = []
             for entry, path in zip(entries, result.paths, strict=True):
                 if path.path.passage == 0:
-                    png = f"plots/{path.path.name}.png"
-                    plot_angular_displacement(path.joints_before, path.joints_after,
-                                              stage / png, path.path.name)
-                    entry["plot"] = png
+                    entry["plot"] = png = f"plots/{path.path.name}.png"
+                    drawn.append((path.joints_before, path.joints_after, stage / png,
+                                  path.path.name))
+            plot_angular_displacements(drawn)
         merged = trimesh.util.concatenate(list(meshes.values()))
         assert isinstance(merged, trimesh.Trimesh)
         stl = merged.export(file_type="stl")
