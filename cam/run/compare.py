@@ -19,15 +19,20 @@ chain "with the same verification result" as the original; here that means
   a grid of spacing h, shifted by less than h, has extremes and percentiles that move
   by up to its slope times h, and the slope of a scallop or an edge is about 1);
 * **shares** -- per face group the share of samples over the limit and the share
-  machined: within ``share`` (absolute);
-* **relative** -- volumes (solid, removed per run), sample counts, cycle times per
-  program, and the ``excess`` event count (one event per NC block that left material
-  beyond the allowance, so it follows the programs' block counts, which the paths'
-  adaptive refinement makes differ on a blade that differs by micrometres): within
-  the given fraction of the original.
+  machined: within ``share`` (absolute) + the share of the group's samples that
+  changed groups (its sample count difference over its count: a sample takes the role
+  of its closest design triangle, and the two designs' triangles differ);
+* **relative** -- volumes (solid, removed per verification run), the part's sample
+  count, cycle times per program, and the ``excess`` event count (one event per NC
+  block that left material beyond the allowance, so it follows the programs' block
+  counts, which the paths' adaptive refinement makes differ on a blade that differs
+  by micrometres): within the given fraction of the original.
 
-Block counts are listed without a judgement (``rule = "info"``). A quantity found in
-one folder only is a difference (a stage run in one folder but not the other).
+Listed without a judgement (``rule = "info"``): block counts and removed volume per
+program (where two programs' paths overlap, which one removes a dexel's material
+depends on micrometres), sample counts per face group (judged through the shares).
+A quantity found in one folder only is a difference (a stage run in one folder but not
+the other).
 
 Command line: ``python -m cam.run.compare ORIGINAL OTHER [--markdown]``: prints the
 table; exit 0 when the results are the same, 1 when not, 2 when a folder is not a run
@@ -297,7 +302,7 @@ def _verify_quantities(data: dict[str, Any] | None, run: str) -> dict[str, tuple
     found[f"{head}.removed_volume_mm3"] = ("volume", data.get("removed_volume_mm3"))
     for program in data.get("programs", []):
         name = Path(str(program["name"])).stem
-        found[f"{head}.{name}.removed_volume_mm3"] = ("volume",
+        found[f"{head}.{name}.removed_volume_mm3"] = ("info",
                                                      program.get("removed_volume_mm3"))
         found[f"{head}.{name}.blocks"] = ("info", program.get("blocks"))
     return found
@@ -317,7 +322,7 @@ def _region_quantities(data: dict[str, Any] | None, run: str) -> dict[str, tuple
             found[f"{run}.{role}.{key}"] = ("length", table.get(key))
         for key in FACE_SHARES:
             found[f"{run}.{role}.{key}"] = ("share", table.get(key))
-        found[f"{run}.{role}.samples"] = ("volume", table.get("samples"))
+        found[f"{run}.{role}.samples"] = ("info", table.get("samples"))
         found[f"{run}.{role}.within_limit"] = ("equal", bool(table.get("within_limit")))
     return found
 
@@ -336,6 +341,18 @@ def _allowed(rule: str, original: Value, tolerances: Tolerances, length: float
     if rule == "excess":
         return tolerances.excess * scale
     return None
+
+
+def _moved_share(name: str, a: dict[str, tuple[str, Value]],
+                 b: dict[str, tuple[str, Value]]) -> float:
+    """The share of a face group's samples that changed groups: the group's sample
+    count difference over its original count (each moved sample may be over the limit
+    or not; the groups are the closest design triangle's role)."""
+    samples = name.rsplit(".", 1)[0] + ".samples"
+    n_a, n_b = a.get(samples, ("", None))[1], b.get(samples, ("", None))[1]
+    if not (isinstance(n_a, int | float) and isinstance(n_b, int | float)) or n_a <= 0:
+        return 0.0
+    return abs(float(n_b) - float(n_a)) / float(n_a)
 
 
 def compare_runs(original: str | Path, other: str | Path,
@@ -369,8 +386,10 @@ def compare_runs(original: str | Path, other: str | Path,
         rule = (a.get(name) or b[name])[0]
         value_a = a[name][1] if name in a else None
         value_b = b[name][1] if name in b else None
-        quantities.append(Quantity(name, value_a, value_b, rule,
-                                   _allowed(rule, value_a, tol, length)))
+        allowed = _allowed(rule, value_a, tol, length)
+        if rule == "share" and allowed is not None:
+            allowed += _moved_share(name, a, b)
+        quantities.append(Quantity(name, value_a, value_b, rule, allowed))
     return RunComparison(Path(original), Path(other), tol, length, tuple(quantities))
 
 

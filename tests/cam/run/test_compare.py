@@ -179,3 +179,18 @@ def test_command_line_exit_codes(tmp_path: Path, original: Path,
     out = capsys.readouterr().out
     assert "| verify.rough.events.gouge | 0 | 3 | 3 | equal | NO |" in out
     assert "1 differ: verify.rough.events.gouge" in out
+
+
+@pytest.mark.parametrize(("share", "same"), [(0.05, True), (0.07, False)])
+def test_shares_allow_for_samples_that_changed_groups(tmp_path: Path, original: Path,
+                                                      share: float, same: bool) -> None:
+    """500 of the group's 10,000 samples moved: 0.01 + 0.05 of share allowed."""
+    def change(files: dict[str, Any]) -> None:
+        fillet = files["verify/regions.json"]["finish"]["roles"]["fillet"]
+        fillet["samples"] += 500
+        fillet["over_limit_share"] += share
+
+    result = compare_runs(original, other(tmp_path, change))
+    assert result.same is same
+    q = next(q for q in result.quantities if q.name == "finish.fillet.over_limit_share")
+    assert q.allowed == pytest.approx(0.06)
