@@ -212,10 +212,11 @@ def operation_clearance(obstacle: MachineObstacle, tool: Tool, tip: Array, axis:
         return {"machine_clearance_mm": None, "note": f"not reachable: {error}"}
     samples, starts = joint_path_samples(joints, obstacle.model.step, query.rho,
                                          with_starts=True)
-    smallest, pair, row = query.smallest(samples)
+    found = query.query(samples)
+    below = found.margin < 0.0  # exact wherever a pair is within its clearance
+    smallest, pair, row = query.smallest(samples, found)
     if not math.isfinite(smallest):
         return {"machine_clearance_mm": None}
-    below = query.query(samples).margin < 0.0
     move = np.searchsorted(starts, np.flatnonzero(below), side="left")
     return {"machine_clearance_mm": round(smallest, 3),
             "machine_clearance_pair": list(pair),

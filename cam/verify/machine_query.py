@@ -157,14 +157,17 @@ class MachineClearance:
         self.seconds += time.process_time() - started
         return Clearances(distance, exact, self.clearance, self.names)
 
-    def smallest(self, joints: Array) -> tuple[float, tuple[str, str], int]:
+    def smallest(self, joints: Array, result: Clearances | None = None
+                 ) -> tuple[float, tuple[str, str], int]:
         """The smallest exact distance of any checked pair over ``joints`` (n, 5).
 
         Returns ``(distance mm, pair names, row)``; ``(inf, ("", ""), -1)`` without
         poses or pairs. Poses whose lower bound is below the best distance found so
-        far are measured until none is left.
+        far are measured until none is left. ``result``: this query's own
+        ``query(joints)`` when the caller has it already (refined in place).
         """
-        result = self.query(joints)
+        if result is None:
+            result = self.query(joints)
         if not result.distance.size:
             return math.inf, ("", ""), -1
         started = time.process_time()

@@ -95,6 +95,9 @@ def test_smallest_over_a_sampled_path_is_the_brute_force_minimum(
     assert row == brute[1]
     assert pair == ("spindle_head", "rotary_table")
     assert query.queries < len(samples) * len(scene.pairs) / 4  # most pairs skipped
+    # handed the caller's own query of the same samples, the same answer
+    again = MachineClearance(scene, kins)
+    assert again.smallest(samples, again.query(samples)) == (distance, pair, row)
 
 
 def _program(tmp_path: Path, rows: np.ndarray) -> Path:
