@@ -2,10 +2,11 @@
 
 The sign of a closest-triangle distance (``cam.verify.deviation``) is only as good
 as the orientation of the surface nearest to the point. Where a design surface folds
-over itself (a rolling-ball fillet whose radius exceeds the radius of curvature of
-its centre line: nine_blade's suction-side trailing-edge corner,
-``fillet_fold_ratio`` 1.35 in geometry.json), the nearest sheet of the fold faces
-inwards and points 2 mm out in the air read as 2 mm inside the part. A ray from the
+over itself (a rolling-ball fillet whose centre line curves tighter than its radius,
+as at nine_blade's suction-side trailing-edge corner, ``fillet_fold_ratio`` 1.35 in
+geometry.json, before ``geometry.fillet.trim_fold`` trimmed such folds; any mesh may
+still carry one), the nearest sheet of the fold faces inwards and points out in the
+air read as inside the part. A ray from the
 point, on the other hand, crosses the folded sheets an even number of times more and
 keeps the parity of the crossings of the real boundary.
 

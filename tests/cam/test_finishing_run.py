@@ -44,7 +44,8 @@ IMPELLERS = ROOT / "fixtures" / "impellers"
 # postures against the part; the machine model as an obstacle is tested in
 # tests/cam/test_machine_planning.py and tests/cam/run/test_machine_chain.py (the
 # splitter's outlet junction postures come closer to that machine's smaller yoke than
-# its clearance, which the planner then names instead of repairing: issue 29, open)
+# its clearance; the machine alone allows a clearing posture there, which the posture
+# repair does not yet pick, so the planner names the two postures: docs/machine-model.md)
 MACHINE = without_model(ROOT / "fixtures" / "machines" / "xyzac-trt.toml")
 SECTIONS = 96
 #: The independent tool parts circumscribe the true tool by at most this much (mm).
