@@ -57,6 +57,21 @@ def _inside(qr: float, qz: float, profile: NDArray[np.float64]) -> bool:
 
 
 @njit(cache=True, nogil=True)
+def _nearest(qr: float, qz: float, profile: NDArray[np.float64], stop: float) -> float:
+    """Distance of ``(qr, qz)`` to the closed ``profile``'s edges, mm; the first edge
+    closer than ``stop`` ends the search (its distance, below ``stop``, is returned)."""
+    best = np.inf
+    for k in range(profile.shape[0] - 1):
+        g = np.sqrt(_edge_gap2(qr, qz, profile[k, 0], profile[k, 1],
+                               profile[k + 1, 0] - profile[k, 0],
+                               profile[k + 1, 1] - profile[k, 1]))
+        if g < stop:
+            return g
+        best = min(best, g)
+    return best
+
+
+@njit(cache=True, nogil=True)
 def _profile_distance(points: NDArray[np.float64], profile: NDArray[np.float64]
                       ) -> NDArray[np.float64]:
     """Distance ``(n,)`` of points ``(n, 3)`` to the solid of revolution of the closed
@@ -64,16 +79,7 @@ def _profile_distance(points: NDArray[np.float64], profile: NDArray[np.float64]
     out = np.empty(points.shape[0])
     for i in range(points.shape[0]):
         qr, qz = np.hypot(points[i, 0], points[i, 1]), points[i, 2]
-        if _inside(qr, qz, profile):
-            out[i] = 0.0
-            continue
-        best = np.inf
-        for k in range(profile.shape[0] - 1):
-            g = _edge_gap2(qr, qz, profile[k, 0], profile[k, 1],
-                           profile[k + 1, 0] - profile[k, 0],
-                           profile[k + 1, 1] - profile[k, 1])
-            best = min(best, g)
-        out[i] = np.sqrt(best)
+        out[i] = 0.0 if _inside(qr, qz, profile) else _nearest(qr, qz, profile, -np.inf)
     return out
 
 
@@ -81,7 +87,8 @@ def _profile_distance(points: NDArray[np.float64], profile: NDArray[np.float64]
 def _profile_touches(points: NDArray[np.float64], profile: NDArray[np.float64],
                      radius: float) -> NDArray[np.bool_]:
     """``_profile_distance(points) < radius`` (``<= 0`` for ``radius`` 0) without
-    computing every distance: the first edge closer than ``radius`` decides."""
+    computing every distance: the bounding box, then the first edge closer than
+    ``radius``, decide."""
     out = np.empty(points.shape[0], dtype=np.bool_)
     rmin, rmax = profile[:, 0].min(), profile[:, 0].max()
     zmin, zmax = profile[:, 1].min(), profile[:, 1].max()
@@ -90,26 +97,10 @@ def _profile_touches(points: NDArray[np.float64], profile: NDArray[np.float64],
         qr, qz = np.hypot(points[i, 0], points[i, 1]), points[i, 2]
         if qr - rmax > far or rmin - qr > far or qz - zmax > far or zmin - qz > far:
             out[i] = False
-            continue
-        hit = False
-        if radius > 0.0:
-            for k in range(profile.shape[0] - 1):
-                g = _edge_gap2(qr, qz, profile[k, 0], profile[k, 1],
-                               profile[k + 1, 0] - profile[k, 0],
-                               profile[k + 1, 1] - profile[k, 1])
-                if np.sqrt(g) < radius:
-                    hit = True
-                    break
-        if not hit:
-            hit = _inside(qr, qz, profile)
-            if not hit and radius <= 0.0:
-                best = np.inf
-                for k in range(profile.shape[0] - 1):
-                    best = min(best, _edge_gap2(qr, qz, profile[k, 0], profile[k, 1],
-                                                profile[k + 1, 0] - profile[k, 0],
-                                                profile[k + 1, 1] - profile[k, 1]))
-                hit = np.sqrt(best) <= 0.0
-        out[i] = hit
+        elif radius > 0.0:
+            out[i] = _nearest(qr, qz, profile, radius) < radius or _inside(qr, qz, profile)
+        else:
+            out[i] = _inside(qr, qz, profile) or _nearest(qr, qz, profile, 0.0) <= 0.0
     return out
 
 
