@@ -130,7 +130,7 @@ def _runs(program: MachineProgram) -> list[tuple[int, int]]:
 def lookahead_motion(
     program: MachineProgram, machine: Machine, joints: Array, dt: float,
     settle: float = 0.0, tolerance: float = DEFAULT_TOLERANCE_MM,
-    max_samples: int = 20_000_000,
+    max_samples: int = 12_000_000,
 ) -> tuple[Array, Array, Array]:
     """Sample the commanded joints of a look-ahead control at ``dt`` (module doc).
 
@@ -148,7 +148,7 @@ def lookahead_motion(
     tolerance : float
         ``G64 P``, mm (rotary joints: degrees).
     max_samples : int
-        Memory guard on ``samples x 5``.
+        Memory guard on the number of time samples.
 
     Returns
     -------
@@ -215,7 +215,7 @@ def lookahead_motion(
     piece_j, piece_a = np.concatenate(jerks), np.concatenate(accs)
     piece_v, piece_s = np.concatenate(speeds), np.concatenate(dists)
     m = int(math.ceil((clock + TAIL) / dt)) + 1
-    if m * 5 > max_samples:
+    if m > max_samples:
         raise InputError("program too long to simulate at this step", field="dt",
                          value=dt, accepted=f"a larger step (needs {m} samples)")
     t = np.arange(m, dtype=np.float64) * dt

@@ -144,3 +144,19 @@ def test_feed_profiles(machine) -> None:  # type: ignore[no-untyped-def]
     assert block.tracking.max() > 0.1 and ahead.tracking.max() > 0.1
     with pytest.raises(InputError, match="feed profile"):
         simulate_program(program, machine, feed_profile="smooth")  # type: ignore[arg-type]
+
+
+def test_the_memory_guard_counts_time_samples(machine) -> None:  # type: ignore[no-untyped-def]
+    """The guard is on time samples (the main job's hour-long fillet program needs 4.2 M
+    at 1 ms and must run): a program needing exactly ``max_samples`` samples runs, one
+    sample fewer is refused with the count it needs."""
+    start = np.array([0.0, 0.0, 20.0, 0.0, 0.0])
+    joints = np.array([[30.0, -20.0, 10.0, 0.0, 0.0], [60.0, -20.0, 10.0, 0.0, 0.0]])
+    program = _program(joints, 1200.0, start)
+    with pytest.raises(InputError, match="needs") as refused:
+        lookahead_motion(program, machine, joints, 1e-3, max_samples=1)
+    needs = int(str(refused.value).split("needs ")[1].split(" ")[0].rstrip(")"))
+    t, _, _ = lookahead_motion(program, machine, joints, 1e-3, max_samples=needs)
+    assert len(t) == needs
+    with pytest.raises(InputError, match="too long"):
+        lookahead_motion(program, machine, joints, 1e-3, max_samples=needs - 1)
