@@ -226,6 +226,7 @@ def test_the_verdict_covers_every_milled_face(chain_small: Path) -> None:
     assert finish["failed"] == sorted(r for r, t in finish["acceptance"].items()
                                       if not t["within_limit"])
     assert finish["stock_short_samples"] == 0
+    assert finish["accepted"] and finish["failed"] == [], finish["failed"]
     counts = load(chain_small, "verify/rough/verify.json")["event_counts"]
     assert counts["stock_short"] == 0
 
