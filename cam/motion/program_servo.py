@@ -150,6 +150,9 @@ class ServoReport:
         (``cam.motion.surface_error``).
     surface_rms, surface_rms_recommended : float or None
         RMS of that deviation over the samples of the blocks in contact, mm.
+    gouge : (n,) float64 or None
+        With a ``BlockContact``, machine K_FFP: the largest part of it that points
+        into the part (a gouge; the rest leaves material standing), mm.
     """
 
     line: NDArray[np.int64]
@@ -171,6 +174,7 @@ class ServoReport:
     surface_recommended: NDArray[np.float64] | None = None
     surface_rms: float | None = None
     surface_rms_recommended: float | None = None
+    gouge: NDArray[np.float64] | None = None
 
     @property
     def default_axes(self) -> list[str]:
@@ -431,6 +435,7 @@ def simulate_program(
         surface=None if contact is None else got.surface,
         surface_recommended=None if contact is None or tuned is None else tuned.surface,
         surface_rms=None if contact is None else got.surface_rms,
+        gouge=None if contact is None else got.gouge,
         surface_rms_recommended=None if contact is None or tuned is None else
         tuned.surface_rms,
     )

@@ -112,6 +112,9 @@ class ErrorSums:
     contour, tool_axis, tracking, surface : (n,) float64
         Largest contour (mm), tool-axis (deg), tracking (mm) and surface-normal (mm)
         error inside each block.
+    gouge : (n,) float64
+        Largest depth of the ball centre's deviation *into* the part along the
+        surface normal inside each block, mm (0: it stayed on or off the surface).
     """
 
     n: int
@@ -119,12 +122,14 @@ class ErrorSums:
     tool_axis: NDArray[np.float64] = field(init=False)
     tracking: NDArray[np.float64] = field(init=False)
     surface: NDArray[np.float64] = field(init=False)
+    gouge: NDArray[np.float64] = field(init=False)
     _feed: list[float] = field(default_factory=lambda: [0.0, 0.0])
     _touch: list[float] = field(default_factory=lambda: [0.0, 0.0])
 
     def __post_init__(self) -> None:
         self.contour, self.tool_axis = np.zeros(self.n), np.zeros(self.n)
         self.tracking, self.surface = np.zeros(self.n), np.zeros(self.n)
+        self.gouge = np.zeros(self.n)
 
     def add(self, first: int, stop: int, index: NDArray[np.int64],
             feed: NDArray[np.bool_], error: ContourError,
@@ -148,9 +153,11 @@ class ErrorSums:
         self._feed[0] += float(np.sum(error.contour[counted] ** 2))
         self._feed[1] += float(counted.sum())
         if contact is not None:
-            normal = np.abs(surface_component(error, index, contact))[keep]
+            signed = surface_component(error, index, contact)[keep]
+            normal = np.abs(signed)
             touching = contact.contact[index][keep]
             self.surface[first:stop] = _block_max(normal, at, n)
+            self.gouge[first:stop] = _block_max(np.maximum(-signed, 0.0), at, n)
             self._touch[0] += float(np.sum(normal[touching] ** 2))
             self._touch[1] += float(touching.sum())
 

@@ -423,18 +423,21 @@ def _on_the_part(programs: list[Any]) -> list[str]:
         rows.append([str(p.get("program")), part.get("contact_blocks"),
                      _um(part.get("surface_max_um")), _um(part.get("surface_p99_um")),
                      _um(part.get("surface_median_um")),
-                     _um(part.get("surface_best_kffp_max_um")), part.get("air_blocks"),
+                     _um(part.get("surface_best_kffp_max_um")),
+                     _um(part.get("into_part_max_um")), part.get("air_blocks"),
                      _um(part.get("contour_air_max_um")),
                      part.get("air_blocks_error_over_gap")])
     if not rows:
         return []
     return [table(["Program", "Blocks on the part", "Normal to surface: max (um)",
-                   "p99 (um)", "median (um)", "max, Best K_FFP (um)", "Air blocks",
-                   "Air: max contour (um)", "Air blocks with error > gap"], rows,
-                  digits=(0, 0, 1, 1, 1, 1, 0, 1, 0)),
+                   "p99 (um)", "median (um)", "max, Best K_FFP (um)",
+                   "into the part: max (um)", "Air blocks", "Air: max contour (um)",
+                   "Air blocks with error > gap"], rows,
+                  digits=(0, 0, 1, 1, 1, 1, 1, 0, 1, 0)),
             note("Blocks on the part: the commanded ball within 0.02 mm of the design "
                  "surface; there the part shows the ball centre's deviation along the "
-                 "surface normal (a deviation along the surface leaves no mark). Air "
+                 "surface normal (a deviation along the surface leaves no mark; "
+                 "into the part: a gouge, otherwise material left standing). Air "
                  "blocks (approaches, departures, links) keep their full contour error.")]
 
 

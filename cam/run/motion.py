@@ -222,6 +222,8 @@ def _surface_row(report: Any, contact: Any, feed: NDArray[np.bool_]) -> dict[str
                            "air_blocks": int(air.sum())}
     row.update(_stats_um(report.surface[contact.contact], "surface"))
     row["surface_rms_samples_um"] = 1000.0 * float(report.surface_rms or 0.0)
+    if report.gouge is not None:
+        row.update(_stats_um(report.gouge[contact.contact], "into_part"))
     row.update(_stats_um(report.deviation[contact.contact], "contour_contact"))
     row.update(_stats_um(report.deviation[air], "contour_air"))
     row["air_blocks_error_over_gap"] = int(np.sum(air & (report.deviation > contact.gap)))
@@ -325,7 +327,9 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
                             "lies within 0.02 mm of the design surface; surface_* = the "
                             "simulated ball centre's deviation along the surface normal "
                             "(what the part shows; a deviation along the surface leaves "
-                            "no mark), per block the largest; contour_air_* = the full "
+                            "no mark), per block the largest; into_part_* = its part "
+                            "pointing into the part (a gouge; the rest leaves material "
+                            "standing); contour_air_* = the full "
                             "contour error of the other feed blocks (approaches, "
                             "departures, links), air_blocks_error_over_gap = those whose "
                             "error exceeds their gap to the design",

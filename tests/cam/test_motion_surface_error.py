@@ -105,3 +105,4 @@ def test_a_corner_in_the_surface_plane_leaves_no_mark(machine) -> None:  # type:
     assert report.deviation.max() > 0.005  # the corner is rounded in the plane
     assert report.surface.max() < 1e-9
     assert report.surface_rms < 1e-9
+    assert report.gouge is not None and report.gouge.max() < 1e-9
