@@ -308,9 +308,8 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
     if surface_errors:
         plot_contour_map(surface_tips, surface_errors, None, spec.hub_contour,
                          spec.shroud_contour, stage / "surface_map.png",
-                         "predicted error along the design surface's normal, blocks whose "
-                         "ball touches the design (meridional view, all blades; machine "
-                         "K_FFP)", quantity="error normal to the surface")
+                         "error along the surface normal, blocks on the part\n"
+                         "(meridional view, all blades)", quantity="normal error")
         plots.append("surface_map.png")
     every = np.concatenate(errors)
     out: dict[str, Any] = {
