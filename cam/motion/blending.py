@@ -225,10 +225,19 @@ class BlendedTime:
 
 def plan_speeds(delta: Array, velocity: Array, acceleration: Array, jerk: Array,
                 rotary: NDArray[np.bool_], rate_bound: Array,
-                tolerance: float = DEFAULT_TOLERANCE_MM) -> SpeedPlan | None:
+                tolerance: float = DEFAULT_TOLERANCE_MM,
+                smoothing: float = 0.0) -> SpeedPlan | None:
     """The look-ahead speed plan of consecutive straight joint moves, rest to rest.
 
-    Parameters as ``blended_times``.
+    Parameters as ``blended_times``, and
+
+    smoothing : float
+        Time of the control's acc/dec after interpolation that the corner speed
+        allows for, s (0: none, the module's corner model). A velocity change ``dv``
+        smoothed over ``Ts`` rounds the corner by ``|dv| Ts / 8`` more, so the corner
+        speed keeps ``|dv| (T + Ts) / 8 <= P`` (the blend's ``T = sigma tau``), as a
+        control with a post-interpolation filter slows at corners (Fanuc's corner
+        deceleration by the axes' allowable speed difference).
 
     Returns
     -------
@@ -267,7 +276,10 @@ def plan_speeds(delta: Array, velocity: Array, acceleration: Array, jerk: Array,
             tolerance * scale[rotary][0] if rotary.any() else 1.0)
         dev = np.maximum(lin, rot) / 8.0
         room = np.minimum(seg_length[1:], seg_length[:-1])
-        corner = np.sqrt(np.minimum(1.0 / (tau * dev), room / tau))
+        # sigma^2 tau dev + sigma Ts dev <= 1 (blend and smoothing), sigma^2 tau <= room
+        a, b = tau * dev, smoothing * dev
+        within = np.where(b > 0, 2.0 / (b + np.sqrt(b * b + 4.0 * a)), 1.0 / np.sqrt(a))
+        corner = np.minimum(within, np.sqrt(room / tau))
     corner = np.where(tau > 0, corner, np.inf)
     corner = np.concatenate([corner, [0.0]]).astype(np.float64)
     seg_len: Array = np.asarray(seg_length, dtype=np.float64)

@@ -71,7 +71,8 @@ def _closest_on_path(
 
 
 def path_distance(
-    command: NDArray[np.float64], actual: NDArray[np.float64], back: int, ahead: int
+    command: NDArray[np.float64], actual: NDArray[np.float64], back: int, ahead: int,
+    extend: tuple[bool, bool] = (True, True),
 ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
     """Distance of each actual point to the commanded polyline (windowed search).
 
@@ -81,6 +82,9 @@ def path_distance(
         Commanded and simulated points at the same sample times, mm.
     back, ahead : int
         Commanded samples searched before and after each sample's own.
+    extend : (bool, bool)
+        The path's first / last moving segment extends beyond its end (it is an end
+        of the whole path; False for a piece of a longer one).
 
     Returns
     -------
@@ -97,6 +101,7 @@ def path_distance(
     m = len(command)
     moving = np.flatnonzero(np.any(np.diff(command, axis=0) != 0.0, axis=1))
     first, last = (int(moving[0]), int(moving[-1])) if len(moving) else (-1, -1)
+    first, last = (first if extend[0] else -1), (last if extend[1] else -1)
     distance, segment, along = np.empty(m), np.empty(m, dtype=np.int64), np.empty(m)
     _closest_on_path(np.ascontiguousarray(command, dtype=np.float64),
                      np.ascontiguousarray(actual, dtype=np.float64), int(back),
@@ -118,17 +123,25 @@ class ContourError:
         Tip distance from the commanded tip at the same instant, mm.
     tip : (m, 3) float64
         Commanded tip in the workpiece frame, mm.
+    offset : (m, 3) float64
+        Simulated tip minus the closest point of the commanded tip path, mm (its
+        norm is ``contour``).
+    axis_offset : (m, 3) float64
+        Simulated tool axis minus the commanded tool axis at that point (unit vectors'
+        difference; the ball centre ``R`` above the tip moves by ``R`` times it).
     """
 
     contour: NDArray[np.float64]
     tool_axis: NDArray[np.float64]
     tracking: NDArray[np.float64]
     tip: NDArray[np.float64]
+    offset: NDArray[np.float64]
+    axis_offset: NDArray[np.float64]
 
 
 def contour_error(
     machine: Machine, command: NDArray[np.float64], actual: NDArray[np.float64],
-    window: int,
+    window: int, extend: tuple[bool, bool] = (True, True),
 ) -> ContourError:
     """Contour, tool-axis and tracking error of simulated joints against commanded.
 
@@ -140,6 +153,8 @@ def contour_error(
         Commanded and simulated joints (mm, rad) at the same sample times.
     window : int
         Samples searched behind each instant (a quarter of it ahead).
+    extend : (bool, bool)
+        The motion's start / end is the whole path's (``path_distance``).
 
     Returns
     -------
@@ -152,12 +167,15 @@ def contour_error(
     kins = kinematics_for(machine)
     tip_c, axis_c = kins.forward(command)
     tip_a, axis_a = kins.forward(actual)
-    distance, segment, along = path_distance(tip_c, tip_a, window, max(window // 4, 1))
+    distance, segment, along = path_distance(tip_c, tip_a, window, max(window // 4, 1),
+                                             extend)
     nxt = np.minimum(segment + 1, len(axis_c) - 1)
     u = along[:, None]  # beyond 0..1 only past the path's ends: extrapolated
     axis_at = axis_c[segment] * (1.0 - u) + axis_c[nxt] * u
     axis_at /= np.maximum(np.linalg.norm(axis_at, axis=1, keepdims=True), 1e-300)
     cross = np.linalg.norm(np.cross(axis_at, axis_a), axis=1)
     dot = np.einsum("ij,ij->i", axis_at, axis_a)
+    closest = tip_c[segment] * (1.0 - u) + tip_c[nxt] * u
     return ContourError(contour=distance, tool_axis=np.degrees(np.arctan2(cross, dot)),
-                        tracking=np.linalg.norm(tip_a - tip_c, axis=1), tip=tip_c)
+                        tracking=np.linalg.norm(tip_a - tip_c, axis=1), tip=tip_c,
+                        offset=tip_a - closest, axis_offset=axis_a - axis_at)

@@ -130,7 +130,7 @@ def _runs(program: MachineProgram) -> list[tuple[int, int]]:
 def lookahead_motion(
     program: MachineProgram, machine: Machine, joints: Array, dt: float,
     settle: float = 0.0, tolerance: float = DEFAULT_TOLERANCE_MM,
-    max_samples: int = 12_000_000,
+    max_samples: int = 12_000_000, smoothing: float = 0.0,
 ) -> tuple[Array, Array, Array]:
     """Sample the commanded joints of a look-ahead control at ``dt`` (module doc).
 
@@ -149,6 +149,9 @@ def lookahead_motion(
         ``G64 P``, mm (rotary joints: degrees).
     max_samples : int
         Memory guard on the number of time samples.
+    smoothing : float
+        Post-interpolation smoothing the corner speeds allow for, s
+        (``blending.plan_speeds``; 0: the cycle-time model's corners).
 
     Returns
     -------
@@ -177,7 +180,7 @@ def lookahead_motion(
     clock = 0.0
     for first, stop_at in _runs(program):
         plan = plan_speeds(delta[first:stop_at], vel, acc, jerk, rotary,
-                           bound[first:stop_at], tolerance)
+                           bound[first:stop_at], tolerance, smoothing)
         if plan is not None:
             dur, jk, a0, v0, s0 = segment_pieces(plan)
             seg_start = vertex[first] + np.concatenate([[0.0], np.cumsum(plan.seg_length)])

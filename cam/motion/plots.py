@@ -107,6 +107,7 @@ def plot_contour_map(
     tips: list[NDArray[np.float64]], errors: list[NDArray[np.float64]],
     tuned: list[NDArray[np.float64]] | None, hub: NDArray[np.float64],
     shroud: NDArray[np.float64], path: str | Path, title: str,
+    quantity: str = "contour error",
 ) -> Path:
     """Contour error on the blade: feed blocks' tips in the meridional plane (r, z).
 
@@ -119,6 +120,8 @@ def plot_contour_map(
         Contour error per block with the machine's K_FFP and with the Best K_FFP, mm.
     hub, shroud : (m, 2) float64
         Meridional contours ``(z, r)``, mm, drawn for orientation.
+    quantity : str
+        What the colour shows (the colour bar's label).
     """
     import matplotlib
 
@@ -141,7 +144,7 @@ def plot_contour_map(
         ax.set_xlabel("radius r, mm")
         ax.set_title(f"{label}: max {micron.max():.1f} um")
         ax.set_aspect("equal", adjustable="datalim")
-        fig.colorbar(dots, ax=ax, label="contour error, um (scale: 99th pct of machine)")
+        fig.colorbar(dots, ax=ax, label=f"{quantity}, um (scale: 99th pct of machine)")
     axes[0][0].set_ylabel("axial z, mm")
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()

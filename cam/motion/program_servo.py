@@ -35,6 +35,9 @@
    the reference's ramp lag. The characteristic frequency is the RMS
    angular velocity of the rotary axes during feed blocks (a point on a table turning
    at omega moves X/Y sinusoidally at omega).
+6. Where it shapes the part (``contact``, ``cam.motion.surface_error``): on the blocks
+   whose ball touches the design surface, the deviation of the simulated ball centre
+   along the surface normal (a deviation along the surface leaves no mark).
 """
 
 from __future__ import annotations
@@ -47,13 +50,20 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam.motion.axis_models import AxisModels, machine_axis_models
-from cam.motion.cycle_time import program_cycle_time, rotary_mask
-from cam.motion.feeddrive import FeedDriveAxis, alpha_th, best_kffp, simulate_axis
+from cam.motion.cycle_time import program_cycle_time
+from cam.motion.feeddrive import FeedDriveAxis, simulate_axis
+from cam.motion.kffp_advice import characteristic_omega, recommend_kffp
 from impeller_cam.errors import InputError
 from postproc.program import MachineProgram, Motion
 
 if TYPE_CHECKING:
+    from cam.motion.surface_error import BlockContact
     from postproc.machine import Machine
+
+__all__ = ["FEED_PROFILES", "MAX_SAMPLES", "PIECE_SAMPLES", "PROGRAM_DT", "ServoReport",
+           "characteristic_omega", "commanded_durations", "commanded_motion",
+           "program_joints", "rapid_profiles", "recommend_kffp", "settle_time",
+           "simulate_program"]
 
 #: Default controller period of the program simulation, s.
 PROGRAM_DT = 2.5e-4
@@ -62,6 +72,9 @@ PROGRAM_DT = 2.5e-4
 #: fillet program peaked at 2.0 GB, about 0.5 kB a sample; 12 M samples is 3 h 20 min of
 #: program at the chain's 1 ms step, about 6 GB).
 MAX_SAMPLES = 12_000_000
+#: Samples simulated at once: a longer program is simulated in pieces split at its
+#: rapids, where the axes are at rest (``servo_pieces``).
+PIECE_SAMPLES = 1_000_000
 
 #: How the control runs the feed across blocks (``simulate_program``).
 FeedProfile = Literal["lookahead", "block"]
@@ -132,6 +145,16 @@ class ServoReport:
     reference_axis : str or None
     model_source : dict of str -> str
         Per axis: ``"identified"`` or the default it got (``axis_models``).
+    surface, surface_recommended : (n,) float64 or None
+        With a ``BlockContact``: the largest deviation of the simulated ball centre
+        along the design surface's normal inside each block in contact (zero
+        elsewhere), mm, with the machine's and the recommended K_FFP
+        (``cam.motion.surface_error``).
+    surface_rms, surface_rms_recommended : float or None
+        RMS of that deviation over the samples of the blocks in contact, mm.
+    gouge : (n,) float64 or None
+        With a ``BlockContact``, machine K_FFP: the largest part of it that points
+        into the part (a gouge; the rest leaves material standing), mm.
     """
 
     line: NDArray[np.int64]
@@ -149,6 +172,11 @@ class ServoReport:
     omega: float
     reference_axis: str | None
     model_source: dict[str, str] = field(default_factory=dict)
+    surface: NDArray[np.float64] | None = None
+    surface_recommended: NDArray[np.float64] | None = None
+    surface_rms: float | None = None
+    surface_rms_recommended: float | None = None
+    gouge: NDArray[np.float64] | None = None
 
     @property
     def default_axes(self) -> list[str]:
@@ -301,66 +329,11 @@ def _block_index(t: NDArray[np.float64], ends: NDArray[np.float64]) -> NDArray[n
     return np.minimum(np.searchsorted(ends, t, side="left"), len(ends) - 1)
 
 
-def _block_max(values: NDArray[np.float64], index: NDArray[np.int64], n: int
-               ) -> NDArray[np.float64]:
-    out = np.zeros(n)
-    np.maximum.at(out, index, values)
-    return out
-
-
-def recommend_kffp(
-    axes: dict[int, FeedDriveAxis], omega: float,
-    source: dict[str, str] | None = None,
-) -> tuple[dict[str, float | None], str | None]:
-    """Best K_FFP per axis against the most lagging rotary axis.
-
-    The reference is the rotary axis with the largest ramp lag per unit speed
-    (an identified axis before a default one of equal lag). Linear axes get the
-    Best K_FFP of Eq. (20) at ``omega``; other rotary axes, which turn in ramps like
-    the reference, get the K_FFP that gives them the reference's ramp lag
-    (``Ts / 2 + (1 - K / 100) / Kpp`` equal; None when outside 0..200 %).
-    """
-    rotaries = [a for a in axes.values() if a.rotary]
-    if not rotaries:
-        return {a.name: None for a in axes.values()}, None
-    given = source or {}
-    reference = max(rotaries, key=lambda a: (float(alpha_th(a, 1.0)),
-                                             given.get(a.name, "identified") == "identified"))
-    lag = float(alpha_th(reference, 1.0))
-    out: dict[str, float | None] = {reference.name: reference.k_ffp}
-    for axis in axes.values():
-        if axis is reference:
-            continue
-        if axis.rotary:
-            k = 100.0 * (1.0 - (lag - axis.ts / 2.0) * axis.kpp)
-            out[axis.name] = k if 0.0 <= k <= 200.0 else None
-            continue
-        try:
-            out[axis.name] = best_kffp(reference, axis, omega)
-        except InputError:
-            out[axis.name] = None
-    return out, reference.name
-
-
-def characteristic_omega(program: MachineProgram, machine: Machine,
-                         joints: NDArray[np.float64], durations: NDArray[np.float64]
-                         ) -> float:
-    """RMS angular velocity of the rotary axes over feed blocks, rad/s (module doc)."""
-    rotary = rotary_mask(machine)
-    feed_rows = program.motion == Motion.LINEAR
-    steps = np.diff(np.vstack([program.start[None, :], joints]), axis=0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rates = np.where(durations[:, None] > 0, steps / durations[:, None], 0.0)[:, rotary]
-    weights = durations * feed_rows
-    if weights.sum() > 0 and rates.size:
-        return float(np.sqrt(np.sum(weights[:, None] * rates**2) / weights.sum()))
-    return 0.0
-
-
 def simulate_program(
     program: MachineProgram, machine: Machine, dt: float = PROGRAM_DT,
     recommend: bool = True, models: AxisModels | None = None,
-    feed_profile: FeedProfile = "lookahead",
+    feed_profile: FeedProfile = "lookahead", contact: BlockContact | None = None,
+    corner_smoothing: float = 0.0,
 ) -> ServoReport:
     """Simulate every axis of ``program`` and predict the contour error at the tool.
 
@@ -377,74 +350,94 @@ def simulate_program(
     feed_profile : {"lookahead", "block"}
         The control's look-ahead feed profile (joint velocities continuous) or every
         feed block at its own constant speed (module doc, step 2).
+    contact : BlockContact, optional
+        Blocks whose ball touches the design surface and its normals: the report
+        then also gives the error along the surface normal (``surface``).
+    corner_smoothing : float
+        Look-ahead only: post-interpolation smoothing (s) the control's corner speeds
+        allow for (``blending.plan_speeds``'s ``smoothing``; 0: none).
 
     Returns
     -------
     ServoReport
     """
     from cam.motion.contour import contour_error
+    from cam.motion.servo_pieces import ErrorSums, contact_rows, program_pieces, sub_program
+    from postproc.kinematics import kinematics_for
 
     if len(program) == 0:
         raise InputError("the program has no motion blocks", field="program")
+    if feed_profile not in FEED_PROFILES:
+        raise InputError("unknown feed profile", field="feed_profile", value=feed_profile,
+                         accepted=" or ".join(FEED_PROFILES))
     models = machine_axis_models(machine) if models is None else models
     axes = models.models
     joints = program_joints(program, machine)
     settle = settle_time(axes)
     durations = commanded_durations(program, machine, joints)
-    if feed_profile == "lookahead":
-        from cam.motion.lookahead import lookahead_motion
-
-        t, command, ends = lookahead_motion(program, machine, joints, dt, settle,
-                                            max_samples=MAX_SAMPLES)
-    elif feed_profile == "block":
-        t, command, ends = commanded_motion(program, machine, joints, dt, settle, durations)
-    else:
-        raise InputError("unknown feed profile", field="feed_profile", value=feed_profile,
-                         accepted=" or ".join(FEED_PROFILES))
-    index = _block_index(t, ends)
-    n = len(program)
-    feed_samples = (program.motion == Motion.LINEAR)[index]
-    window = int(math.ceil(settle / dt)) + 1
-
-    def run(chosen: dict[int, FeedDriveAxis]) -> tuple[NDArray[np.float64], dict[str, bool]]:
-        actual = command.copy()
-        saturated = {}
-        for column, model in chosen.items():
-            response = simulate_axis(model, command[:, column], dt)
-            actual[:, column] = response.position
-            saturated[model.name] = bool(response.saturated[feed_samples].any())
-        return actual, saturated
-
-    def rms(values: NDArray[np.float64]) -> float:
-        return float(np.sqrt(np.mean(values[feed_samples] ** 2))) if feed_samples.any() \
-            else 0.0
-
-    actual, saturated = run(axes)
-    error = contour_error(machine, command, actual, window)
-    lag = {axes[c].name: float(np.max(np.abs(actual[:, c] - command[:, c]))) for c in axes}
     omega = characteristic_omega(program, machine, joints, durations)
     recommended: dict[str, float | None] = {}
     reference = None
-    tuned_error = None
+    runs: dict[str, dict[int, FeedDriveAxis]] = {"machine": axes}
     if recommend and omega > 0.0:
         recommended, reference = recommend_kffp(axes, omega, models.source)
-        tuned = {c: m if recommended.get(m.name) is None else
-                 m.with_kffp(float(recommended[m.name]))  # type: ignore[arg-type]
-                 for c, m in axes.items()}
-        tuned_error = contour_error(machine, command, run(tuned)[0], window)
-    from postproc.kinematics import kinematics_for
+        runs["tuned"] = {c: m if recommended.get(m.name) is None else
+                         m.with_kffp(float(recommended[m.name]))  # type: ignore[arg-type]
+                         for c, m in axes.items()}
+    n = len(program)
+    sums = {key: ErrorSums(n) for key in runs}
+    lag = {m.name: 0.0 for m in axes.values()}
+    saturated = {m.name: False for m in axes.values()}
+    window = int(math.ceil(settle / dt)) + 1
+    rapid = program.motion == Motion.RAPID
+    stops = rapid | np.concatenate([rapid[1:], [False]])
+    rapids = np.flatnonzero(rapid)
+    for first, stop in program_pieces(program.motion, durations + settle * stops, dt,
+                                      PIECE_SAMPLES):
+        # the pass before the piece as its warm-up (servo_pieces)
+        warm = int(rapids[rapids < first][-1]) if first > 0 else 0
+        piece = sub_program(program, joints, warm, stop)
+        if feed_profile == "lookahead":
+            from cam.motion.lookahead import lookahead_motion
 
+            t, command, ends = lookahead_motion(piece, machine, piece.joints, dt, settle,
+                                                max_samples=MAX_SAMPLES,
+                                                smoothing=corner_smoothing)
+        else:
+            t, command, ends = commanded_motion(piece, machine, piece.joints, dt, settle,
+                                                durations[warm:stop])
+        # a piece's last block holds before the next piece's rapid: its tail does
+        ends[-1] += settle if stop < n else 0.0
+        index = _block_index(t, ends)
+        feed_samples = (piece.motion == Motion.LINEAR)[index]
+        for key, chosen in runs.items():
+            actual = command.copy()
+            for column, model in chosen.items():
+                response = simulate_axis(model, command[:, column], dt)
+                actual[:, column] = response.position
+                if key == "machine":
+                    saturated[model.name] |= bool(response.saturated[feed_samples].any())
+                    lag[model.name] = max(lag[model.name], float(
+                        np.max(np.abs(response.position - command[:, column]))))
+            error = contour_error(machine, command, actual, window, (warm == 0, stop == n))
+            sums[key].add(first, stop, index, feed_samples, error,
+                          contact_rows(contact, warm, stop), skip=first - warm,
+                          keep=None if stop == n else t <= ends[-1])
+            del actual, error
     tip, _ = kinematics_for(machine).forward(joints)
+    got, tuned = sums["machine"], sums.get("tuned")
     return ServoReport(
-        line=program.line.copy(), deviation=_block_max(error.contour, index, n),
-        tool_axis=_block_max(error.tool_axis, index, n),
-        tracking=_block_max(error.tracking, index, n), tip=tip,
-        feed_rms=rms(error.contour), axis_lag=lag, saturated=saturated,
-        recommended_kffp=recommended,
-        deviation_recommended=None if tuned_error is None else
-        _block_max(tuned_error.contour, index, n),
-        tool_axis_recommended=None if tuned_error is None else
-        _block_max(tuned_error.tool_axis, index, n),
-        feed_rms_recommended=None if tuned_error is None else rms(tuned_error.contour),
+        line=program.line.copy(), deviation=got.contour, tool_axis=got.tool_axis,
+        tracking=got.tracking, tip=tip, feed_rms=got.feed_rms, axis_lag=lag,
+        saturated=saturated, recommended_kffp=recommended,
+        deviation_recommended=None if tuned is None else tuned.contour,
+        tool_axis_recommended=None if tuned is None else tuned.tool_axis,
+        feed_rms_recommended=None if tuned is None else tuned.feed_rms,
         omega=omega, reference_axis=reference, model_source=dict(models.source),
+        surface=None if contact is None else got.surface,
+        surface_recommended=None if contact is None or tuned is None else tuned.surface,
+        surface_rms=None if contact is None else got.surface_rms,
+        gouge=None if contact is None else got.gouge,
+        surface_rms_recommended=None if contact is None or tuned is None else
+        tuned.surface_rms,
     )

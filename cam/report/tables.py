@@ -394,6 +394,7 @@ def _servo_body(folder: RunFolder, document: dict[str, Any]) -> list[str]:
                             "Median, Best K_FFP (um)", "Max tool axis (deg)", "Worst line",
                             "Torque saturation in feed"], rows,
                            digits=(0, 1, 1, 1, 1, 1, 1, 3, 0, 0)))
+        parts.extend(_on_the_part(programs))
     models, machine = document.get("axis_models"), document.get("kffp_machine")
     if isinstance(models, dict) and models:
         parts.append(table(["Axis", "Feed-drive model", "Machine K_FFP (%)"],
@@ -409,6 +410,35 @@ def _servo_body(folder: RunFolder, document: dict[str, Any]) -> list[str]:
                       "Best K_FFP matches each axis' lag to the most lagging rotary axis. "
                       "The map shows each feed block's tip in the meridional plane."))
     return parts
+
+
+def _on_the_part(programs: list[Any]) -> list[str]:
+    """Where the error shapes the part (ball on the design surface) and the air blocks,
+    apart (motion.json ``on_the_part``, ``cam.motion.surface_error``)."""
+    rows: list[list[Cell]] = []
+    for p in programs:
+        part = p.get("on_the_part") if isinstance(p, dict) else None
+        if not isinstance(part, dict):
+            continue
+        rows.append([str(p.get("program")), part.get("contact_blocks"),
+                     _um(part.get("surface_max_um")), _um(part.get("surface_p99_um")),
+                     _um(part.get("surface_median_um")),
+                     _um(part.get("surface_best_kffp_max_um")),
+                     _um(part.get("into_part_max_um")), part.get("air_blocks"),
+                     _um(part.get("contour_air_max_um")),
+                     part.get("air_blocks_error_over_gap")])
+    if not rows:
+        return []
+    return [table(["Program", "Blocks on the part", "Normal to surface: max (um)",
+                   "p99 (um)", "median (um)", "max, Best K_FFP (um)",
+                   "into the part: max (um)", "Air blocks", "Air: max contour (um)",
+                   "Air blocks with error > gap"], rows,
+                  digits=(0, 0, 1, 1, 1, 1, 1, 0, 1, 0)),
+            note("Blocks on the part: the commanded ball within 0.02 mm of the design "
+                 "surface; there the part shows the ball centre's deviation along the "
+                 "surface normal (a deviation along the surface leaves no mark; "
+                 "into the part: a gouge, otherwise material left standing). Air "
+                 "blocks (approaches, departures, links) keep their full contour error.")]
 
 
 def _motion_part(folder: RunFolder, key: str, title: str, body: Any) -> Section:

@@ -151,18 +151,90 @@ def _rms(values: NDArray[np.float64]) -> float:
     return float(np.sqrt(np.mean(values**2))) if len(values) else 0.0
 
 
-def _per_line_csv(path: Path, report: Any, feed: NDArray[np.bool_]) -> None:
-    """Per NC line of the feed blocks: commanded tip and the predicted errors."""
+def _per_line_csv(path: Path, report: Any, feed: NDArray[np.bool_],
+                  contact: Any | None) -> None:
+    """Per NC line of the feed blocks: commanded tip, the predicted errors and, with a
+    design, the ball's gap to it and the error along its normal (contact blocks)."""
     tuned = report.deviation_recommended
     rows = ["line,tip_x_mm,tip_y_mm,tip_z_mm,contour_um,tool_axis_deg,contour_best_kffp_um,"
-            "tool_axis_best_kffp_deg"]
+            "tool_axis_best_kffp_deg,gap_mm,contact,surface_um,surface_best_kffp_um"]
     for i in np.flatnonzero(feed):
         x, y, z = report.tip[i]
-        best = "" if tuned is None else (f"{1000.0 * tuned[i]:.3f},"
-                                         f"{report.tool_axis_recommended[i]:.5f}")
+        best = "," if tuned is None else (f"{1000.0 * tuned[i]:.3f},"
+                                          f"{report.tool_axis_recommended[i]:.5f}")
+        on = ",,,"
+        if contact is not None and report.surface is not None:
+            tuned_surface = "" if report.surface_recommended is None else \
+                f"{1000.0 * report.surface_recommended[i]:.3f}"
+            on = (f"{contact.gap[i]:.4f},{int(contact.contact[i])},"
+                  f"{1000.0 * report.surface[i]:.3f},{tuned_surface}")
         rows.append(f"{report.line[i]},{x:.4f},{y:.4f},{z:.4f},"
-                    f"{1000.0 * report.deviation[i]:.3f},{report.tool_axis[i]:.5f},{best}")
+                    f"{1000.0 * report.deviation[i]:.3f},{report.tool_axis[i]:.5f},{best},{on}")
     write_text_atomic(path, "\n".join(rows) + "\n")
+
+
+def _stats_um(values: NDArray[np.float64], prefix: str) -> dict[str, float | None]:
+    """max / RMS / median / 99th percentile of per-block values (mm) in um."""
+    if not len(values):
+        return {f"{prefix}_{k}_um": None for k in ("max", "rms", "median", "p99")}
+    um = 1000.0 * values
+    return {f"{prefix}_max_um": float(um.max()), f"{prefix}_rms_um": _rms(um),
+            f"{prefix}_median_um": float(np.median(um)),
+            f"{prefix}_p99_um": float(np.percentile(um, 99))}
+
+
+def _design_distance(ctx: Context) -> Any:
+    """Signed distance from the design: the run's STL (geometry stage), else the spec."""
+    from cam.verify.deviation import DesignDistance
+    from cam.verify.sources import load_design
+
+    stl = ctx.out / "geometry" / "impeller.stl"
+    vertices, faces, _ = load_design(stl if stl.is_file() else ctx.spec)
+    return DesignDistance(vertices, faces)
+
+
+def _contact(ctx: Context, entry: dict[str, Any], program: Any, machine: Any,
+             design: Any) -> Any | None:
+    """Contact of each block's ball with the design (``surface_error.block_contact``);
+    None without the APT (no cutter) or for a cutter that is not a ball."""
+    from cam.motion.program_servo import program_joints
+    from cam.motion.surface_error import block_contact
+    from postproc.apt import read_apt
+    from postproc.kinematics import kinematics_for
+    from postproc.program import Motion
+
+    apt = ctx.out / entry["apt"] if entry.get("apt") else None
+    if apt is None or not apt.is_file():
+        return None
+    cutter = read_apt(apt)[0].cutter
+    if cutter is None or cutter.corner_radius < 0.5 * cutter.diameter - 1e-9:
+        return None
+    tip, axis = kinematics_for(machine).forward(program_joints(program, machine))
+    return block_contact(tip, axis, program.motion == int(Motion.LINEAR),
+                         cutter.corner_radius, design)
+
+
+def _surface_row(report: Any, contact: Any, feed: NDArray[np.bool_]) -> dict[str, Any]:
+    """motion.json entries of the contact / air split (``cam.motion.surface_error``)."""
+    air = feed & ~contact.contact
+    row: dict[str, Any] = {"ball_radius_mm": contact.radius,
+                           "contact_blocks": int(contact.contact.sum()),
+                           "air_blocks": int(air.sum())}
+    row.update(_stats_um(report.surface[contact.contact], "surface"))
+    row["surface_rms_samples_um"] = 1000.0 * float(report.surface_rms or 0.0)
+    if report.gouge is not None:
+        row.update(_stats_um(report.gouge[contact.contact], "into_part"))
+    row.update(_stats_um(report.deviation[contact.contact], "contour_contact"))
+    row.update(_stats_um(report.deviation[air], "contour_air"))
+    row["air_blocks_error_over_gap"] = int(np.sum(air & (report.deviation > contact.gap)))
+    if contact.contact.any():
+        worst = np.flatnonzero(contact.contact)[int(np.argmax(report.surface[contact.contact]))]
+        row["surface_worst_line"] = int(report.line[worst])
+    if report.surface_recommended is not None:
+        row.update(_stats_um(report.surface_recommended[contact.contact], "surface_best_kffp"))
+        row["surface_rms_samples_best_kffp_um"] = \
+            1000.0 * float(report.surface_rms_recommended or 0.0)
+    return row
 
 
 def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
@@ -181,21 +253,26 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
         return {"program": None, "note": "the machine file has no servo data (no "
                 "[axes.<NAME>.servo] table: nothing to model the axes on)"}
     models = machine_axis_models(machine)
+    design = _design_distance(ctx)
     programs, tips, errors, tuned_errors = [], [], [], []
+    surface_tips, surface_errors = [], []
     for entry in finish:
         program = read_nc(ctx.out / entry["nc"], machine=machine)
-        report = simulate_program(program, machine, dt=SERVO_DT, models=models)
+        contact = _contact(ctx, entry, program, machine, design)
+        report = simulate_program(program, machine, dt=SERVO_DT, models=models,
+                                  contact=contact)
         feed = program.motion == int(Motion.LINEAR)
         if not feed.any():
             continue
         dev, tuned = report.deviation[feed], report.deviation_recommended
         csv_name = f"contour_{Path(entry['nc']).stem}.csv"
-        _per_line_csv(stage / csv_name, report, feed)
+        _per_line_csv(stage / csv_name, report, feed, contact)
         row: dict[str, Any] = {
             "program": entry["nc"], "blocks": int(feed.sum()),
             "max_contour_um": 1000.0 * float(dev.max()),
             "rms_contour_um": 1000.0 * report.feed_rms,
             "median_contour_um": 1000.0 * float(np.median(dev)),
+            "p99_contour_um": 1000.0 * float(np.percentile(dev, 99)),
             "worst_line": int(report.line[feed][int(np.argmax(dev))]),
             "max_tool_axis_deg": float(report.tool_axis[feed].max()),
             "omega_rad_s": report.omega,
@@ -210,8 +287,13 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
                 "rms_contour_best_kffp_um": 1000.0 * float(report.feed_rms_recommended or 0),
                 "median_contour_best_kffp_um": 1000.0 * float(np.median(tuned[feed])),
                 "max_tool_axis_best_kffp_deg": float(tuned_axis[feed].max()),
+                "p99_contour_best_kffp_um": 1000.0 * float(np.percentile(tuned[feed], 99)),
             })
             tuned_errors.append(tuned[feed])
+        if contact is not None and report.surface is not None:
+            row["on_the_part"] = _surface_row(report, contact, feed)
+            surface_tips.append(report.tip[contact.contact])
+            surface_errors.append(report.surface[contact.contact])
         programs.append(row)
         tips.append(report.tip[feed])
         errors.append(dev)
@@ -222,6 +304,13 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
                      None, spec.hub_contour, spec.shroud_contour, stage / "contour_map.png",
                      "predicted contour error of the finishing programs, per NC block "
                      "(meridional view, all blades)")
+    plots = []
+    if surface_errors:
+        plot_contour_map(surface_tips, surface_errors, None, spec.hub_contour,
+                         spec.shroud_contour, stage / "surface_map.png",
+                         "error along the surface normal, blocks on the part\n"
+                         "(meridional view, all blades)", quantity="normal error")
+        plots.append("surface_map.png")
     every = np.concatenate(errors)
     out: dict[str, Any] = {
         "program": "all finishing programs",
@@ -232,6 +321,17 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
         "max_contour_um": 1000.0 * float(every.max()),
         "programs": programs,
         "plot": "contour_map.png",
+        "plots": plots,
+        "on_the_part_note": "on_the_part: feed blocks whose commanded ball (tip + R axis) "
+                            "lies within 0.02 mm of the design surface; surface_* = the "
+                            "simulated ball centre's deviation along the surface normal "
+                            "(what the part shows; a deviation along the surface leaves "
+                            "no mark), per block the largest; into_part_* = its part "
+                            "pointing into the part (a gouge; the rest leaves material "
+                            "standing); contour_air_* = the full "
+                            "contour error of the other feed blocks (approaches, "
+                            "departures, links), air_blocks_error_over_gap = those whose "
+                            "error exceeds their gap to the design",
         "note": "contour error = distance of the simulated tool tip from the commanded "
                 "tip path (normal to it; lag along the path is not a shape error), "
                 "largest per NC block over feed blocks; RMS over the feed samples; every "

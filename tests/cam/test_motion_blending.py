@@ -130,3 +130,22 @@ def test_blended_lies_between_nominal_and_exact_stop(blocks: list, with_jerk: bo
     assert np.all(ours >= 0)
     assert ours.sum() <= stop.sum() * (1 + 1e-9) + 1e-12
     assert ours.sum() >= nominal.sum() * (1 - 1e-9)
+
+
+@pytest.mark.parametrize("smoothing", [0.0, 0.016, 0.064])
+def test_corner_speed_allows_for_the_smoothing_after_interpolation(smoothing: float) -> None:
+    # a 90-degree X -> Y corner: the joints change by |dv| = sqrt(2) V over the blend's
+    # T = V / a, and the smoothing Ts rounds the corner by |dv| Ts / 8 more:
+    # sqrt(2) V (V / a + Ts) / 8 = P
+    from cam.motion.blending import plan_speeds
+
+    tolerance, feed, leg = 0.01, 100.0, 40.0
+    delta = np.array([[leg, 0, 0, 0, 0], [0, leg, 0, 0, 0]], dtype=float)
+    plan = plan_speeds(delta, VEL, ACC, np.full(5, INF), ROTARY, np.full(2, feed / leg),
+                       tolerance, smoothing)
+    assert plan is not None
+    a, room = ACC[0], 8.0 * tolerance / math.sqrt(2.0)
+    expected = (-smoothing + math.sqrt(smoothing**2 + 4.0 * room / a)) * a / 2.0
+    assert plan.exit[0] * VEL[0] == pytest.approx(expected, rel=1e-12)
+    speed = plan.exit[0] * VEL[0]
+    assert math.sqrt(2.0) * speed * (speed / a + smoothing) / 8.0 == pytest.approx(tolerance)

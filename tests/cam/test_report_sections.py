@@ -334,3 +334,17 @@ def test_one_legend_entry_per_umr_and_no_unset_settings(sample: Path) -> None:
     summary = plain(sections["summary"])
     assert "rough_tool: ball6" in summary and "verify_resolution_mm: 0.25" in summary
     assert "post:" not in summary
+
+
+def test_servo_on_the_part_and_in_the_air_apart(sample: Path) -> None:
+    motion = json.loads((sample / "motion/motion.json").read_text())
+    row = motion["servo"]["programs"][0]
+    row["on_the_part"] = {"contact_blocks": 1561, "surface_max_um": 170.4,
+                          "surface_p99_um": 61.4, "surface_median_um": 1.5,
+                          "surface_best_kffp_max_um": 165.7, "into_part_max_um": 88.2,
+                          "air_blocks": 18, "contour_air_max_um": 133.8,
+                          "air_blocks_error_over_gap": 0}
+    (sample / "motion/motion.json").write_text(json.dumps(motion))
+    servo = plain(sections_of(report_html(sample, render=False))["servo"])
+    assert f"{row['program']} 1561 170.4 61.4 1.5 165.7 88.2 18 133.8 0" in servo
+    assert "Blocks on the part" in servo

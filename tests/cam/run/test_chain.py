@@ -251,7 +251,12 @@ def test_motion_json(chain_small: Path) -> None:
         assert set(row["kffp_best"]) == {"X", "Y", "Z", "A", "C"}
         assert row["max_contour_um"] >= row["rms_contour_um"] > 0
         assert (chain_small / "motion" / row["per_line"]).is_file()
+        part = row["on_the_part"]  # the ball on the design surface, apart from air
+        assert part["contact_blocks"] > 0.5 * row["blocks"]
+        assert part["contact_blocks"] + part["air_blocks"] == row["blocks"]
+        assert 0 <= part["into_part_max_um"] <= part["surface_max_um"] + 1e-9
     assert (chain_small / "motion" / servo["plot"]).is_file()
+    assert all((chain_small / "motion" / name).is_file() for name in servo["plots"])
 
 
 def test_rerun_one_stage_from_the_outputs_on_disk(chain_small: Path, tmp_path: Path) -> None:
