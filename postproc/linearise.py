@@ -167,6 +167,45 @@ def arc_distance(
     return np.where(inside, to_plane, to_ends)
 
 
+def keeps_branch(axis: NDArray[np.float64], moving: NDArray[np.bool_],
+                 angular: float) -> NDArray[np.bool_]:
+    """Moves that must stay on one inverse branch: they keep off the C axis.
+
+    A table-tilting machine reaches an axis off the C axis with tilt ``t`` and rotation
+    ``c`` or with ``-t`` and ``c + pi``. Changing branch inside a move turns the tilt
+    through 0, i.e. the tool axis through the C axis; a feed move follows the great
+    circle between its two axes, so it may change branch only when that arc passes
+    within ``angular`` of the C axis (either pole). Near the pole the move then stays
+    on its branch and C turns fast while the axis moves little, which the
+    linearisation follows within tolerance.
+
+    Parameters
+    ----------
+    axis : (n, 3) float64
+        Unit tool axes of the poses, in any frame whose Z is the C axis (W).
+    moving : (n,) bool
+        ``moving[i]``: the move into pose ``i`` is a cut (feed, plunge, retract);
+        ``moving[0]`` is ignored.
+    angular : float
+        Angular tolerance of the linearisation, rad.
+
+    Returns
+    -------
+    (n,) bool
+        ``out[i]``: the move into pose ``i`` must keep the branch of pose ``i - 1``;
+        ``out[0]`` is False.
+    """
+    axis = np.asarray(axis, dtype=np.float64)
+    out = np.zeros(len(axis), dtype=bool)
+    rows = np.flatnonzero(np.asarray(moving, dtype=bool)[1:]) + 1
+    if rows.size == 0:
+        return out
+    a0, a1 = axis[rows - 1], axis[rows]
+    poles = np.broadcast_to(np.array([[[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]]]), (len(rows), 2, 3))
+    out[rows] = arc_distance(poles, a0, a1).min(axis=1) > angular
+    return out
+
+
 def _axis_within(
     vectors: NDArray[np.float64], a0: NDArray[np.float64], a1: NDArray[np.float64],
     limit: NDArray[np.float64],
@@ -285,6 +324,7 @@ def linearise(
     tcp: bool = False,
     singular_tilt: float = 1e-9,
     records: NDArray[np.int64] | None = None,
+    where: str = "",
 ) -> Linearised:
     """Split the checked segments of a pose sequence into blocks within tolerance.
 
@@ -309,6 +349,8 @@ def linearise(
         Tilt below which C is undefined, rad.
     records : (n,) int64, optional
         APT record of each pose, for error messages.
+    where : str
+        What the poses are (file, operation), for error messages.
 
     Returns
     -------
@@ -331,7 +373,8 @@ def linearise(
             part = linearise(kins, tip[start:stop], axis[start:stop], joints[start:stop],
                              np.asarray(check)[start:stop], chordal, angular, tcp=tcp,
                              singular_tilt=singular_tilt,
-                             records=None if records is None else records[start:stop])
+                             records=None if records is None else records[start:stop],
+                             where=where)
             part.segment += start
             parts.append(part)
         return Linearised(*(np.concatenate([getattr(p, f) for p in parts])
@@ -439,10 +482,13 @@ def linearise(
     if len(seg):
         first = int(seg.min())
         record = None if records is None else int(records[first])
-        where = f"segment to pose {first}" + (f" (record {record})" if record is not None else "")
+        place = f"segment to pose {first}" + (f" (record {record})" if record is not None else "")
+        place = f"{where}, {place}" if where else place
+        turn = np.degrees(joints[first, 3:] - joints[first - 1, 3:])
         raise InputError(
-            f"{where}: cannot keep the tool within the chordal/angular tolerance by "
-            "splitting the move (a C re-wind or a rotary branch change inside a feed move, or "
+            f"{place}: cannot keep the tool within the chordal/angular tolerance by "
+            f"splitting the move (the rotary joints turn by {turn[0]:.3f} and {turn[1]:.3f} "
+            "deg in it: a C re-wind or a rotary branch change inside a feed move, or "
             "an axis passing closer to the C axis than the angular tolerance?)",
             field="GOTO",
             value=record,
