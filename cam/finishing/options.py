@@ -105,8 +105,8 @@ class FinishOptions:
         A hub pass whose axis turns faster between two postures (it changes side,
         e.g. across the C axis where a small axis change is a large C change) is
         split there: the tool lifts, turns in the air and comes back
-        (``posture.axis_breaks``, finish.json ``axis_breaks``). The hub passes of
-        the fixtures turn by at most 1.5 (nine_blade) and 3.8 (splitter) deg/mm.
+        (``posture.axis_breaks``, finish.json ``axis_breaks``). nine_blade's hub
+        passes turn by at most 1.47 deg/mm (docs/finishing.md).
     cutter_allowance_mm : float
         The ball is checked shrunk by this much so that it may touch the surfaces
         it cuts (must exceed the scene tessellation error), mm.
