@@ -26,6 +26,7 @@ from cam.finishing.paths import CutterPath, blade_distance, rotate_path, subset_
 from cam.finishing.posture import (
     angle_between,
     axis_breaks,
+    axis_turn_rate,
     c_max,
     enforce_normal_angle,
     initial_axes,
@@ -184,6 +185,7 @@ class PathResult:
             "rule_violation_points": self.rule_points.tolist(),
             "trimmed_points": self.trimmed,
             "axis_breaks": self.breaks.tolist(),
+            "max_axis_turn_deg_per_mm": _json_rate(axis_turn_rate(self.path.centre, self.axis)),
             "posture_repair": None if self.repair is None else {
                 "rounds": self.repair.rounds,
                 "tilted_points": self.repair.tilted.tolist(),
@@ -191,6 +193,12 @@ class PathResult:
                 "unresolved_points": self.repair.unresolved.tolist(),
             },
         }
+
+
+def _json_rate(rate: Array) -> float | None:
+    """Largest turn rate (rad/mm) in deg/mm for finish.json; None for a turn on the spot."""
+    top = float(np.max(rate, initial=0.0))
+    return round(math.degrees(top), 4) if math.isfinite(top) else None
 
 
 def _path_parameter(centre: Array) -> Array:
