@@ -4,7 +4,7 @@
 
 1. inverse kinematics of every CL pose (continuous branch, C unwound, travel limits
    checked with the APT record named in the error; a feed move keeps its branch
-   unless its tool axis passes the C axis, ``linearise.keeps_branch``),
+   unless its tool axis passes the C axis, ``pole.keeps_branch``),
 2. rotary linearisation of simultaneous feed moves (``postproc.linearise``),
 3. safe retract and re-orientation before the first operation, at tool changes and
    before every rapid move that turns a rotary axis, except checked links
@@ -36,7 +36,8 @@ from impeller_cam.tolerances import DEFAULT_TOLERANCES
 from postproc.feeds import ROTARY_STILL, block_feeds
 from postproc.kinematics import kinematics_for
 from postproc.kinematics.base import Kinematics
-from postproc.linearise import keeps_branch, lever_bound, linearise
+from postproc.linearise import lever_bound, linearise
+from postproc.pole import keeps_branch
 from postproc.posts.numbers import modal_changes, quantise
 from postproc.program import FeedMode, MachineProgram, Motion
 from postproc.toolpath import Cutter, MoveKind, Toolpath

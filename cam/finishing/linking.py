@@ -43,7 +43,7 @@ from numpy.typing import NDArray
 from cam.finishing.envelope import Envelope, retract_length, stepped_link
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
 from postproc.kinematics.base import OverTravelError
-from postproc.linearise import keeps_branch
+from postproc.pole import keeps_branch
 from postproc.toolpath import Cutter, MoveKind, Toolpath
 
 if TYPE_CHECKING:

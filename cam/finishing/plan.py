@@ -26,11 +26,11 @@ from cam.finishing.paths import CutterPath, blade_distance, rotate_path, subset_
 from cam.finishing.posture import (
     angle_between,
     axis_breaks,
-    axis_turn_rate,
     c_max,
     enforce_normal_angle,
     initial_axes,
     lead_tilt,
+    max_turn_deg_per_mm,
     rotate_about_z,
 )
 from cam.finishing.repair import PostureRules, RepairResult, repair_postures, rule_violations
@@ -112,9 +112,8 @@ class PathResult:
         What the eq. 7 remedy found (a proven-before-used guess for the same path in
         the next passage; ``interference.StepHint``).
     breaks : (k,) intp
-        Hub passes: moves ``i -> i + 1`` whose axis turns faster than
-        ``max_axis_turn_deg_per_mm``; the pass is machined in pieces with a lift there
-        (``posture.axis_pieces``, ``order.ordered_passes``).
+        Hub passes: moves ``i -> i + 1`` turning the axis faster than the option
+        ``max_axis_turn_deg_per_mm``: machined in pieces (``order.ordered_passes``).
     """
 
     path: CutterPath
@@ -185,7 +184,7 @@ class PathResult:
             "rule_violation_points": self.rule_points.tolist(),
             "trimmed_points": self.trimmed,
             "axis_breaks": self.breaks.tolist(),
-            "max_axis_turn_deg_per_mm": _json_rate(axis_turn_rate(self.path.centre, self.axis)),
+            "max_axis_turn_deg_per_mm": max_turn_deg_per_mm(self.path.centre, self.axis),
             "posture_repair": None if self.repair is None else {
                 "rounds": self.repair.rounds,
                 "tilted_points": self.repair.tilted.tolist(),
@@ -193,12 +192,6 @@ class PathResult:
                 "unresolved_points": self.repair.unresolved.tolist(),
             },
         }
-
-
-def _json_rate(rate: Array) -> float | None:
-    """Largest turn rate (rad/mm) in deg/mm for finish.json; None for a turn on the spot."""
-    top = float(np.max(rate, initial=0.0))
-    return round(math.degrees(top), 4) if math.isfinite(top) else None
 
 
 def _path_parameter(centre: Array) -> Array:
@@ -339,10 +332,8 @@ def _finish_once(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collisio
     if surfaces is not None and path.operation == "junction":
         junction = junction_errors(path, centre_now, surfaces.hub, radius,
                                    surfaces.spec.pitch)
-    breaks = np.zeros(0, dtype=np.intp)
-    if path.operation == "hub":  # a side change of the tool is made in the air
-        breaks = axis_breaks(centre_now, inter.axis,
-                             math.radians(options.max_axis_turn_deg_per_mm))
+    breaks = axis_breaks(centre_now, inter.axis, math.radians(  # hub: side changes in the air
+        options.max_axis_turn_deg_per_mm if path.operation == "hub" else math.inf))
     return PathResult(path, inter.tip, inter.axis, joints0, joints, before, after,
                       points_before, smoothing, inter, deviation, junction, lead, tilt,
                       angle_between(inter.axis, path.normal), repair, rule_points,

@@ -23,6 +23,8 @@ Every function is vectorised over ``(n, 3)`` rows; angles in radians.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -36,6 +38,7 @@ __all__ = [
     "enforce_normal_angle",
     "initial_axes",
     "lead_tilt",
+    "max_turn_deg_per_mm",
     "rotate_about_z",
 ]
 
@@ -175,6 +178,15 @@ def axis_turn_rate(centre: Array, axis: Array) -> Array:
     with np.errstate(divide="ignore", invalid="ignore"):
         rate = np.where(turn > 0.0, turn / step, 0.0)
     return np.asarray(rate)
+
+
+def max_turn_deg_per_mm(centre: Array, axis: Array) -> float | None:
+    """Fastest ``axis_turn_rate`` of a pass in deg/mm (finish.json), rounded to 1e-4.
+
+    0 for a single posture; None for a turn without moving the ball (infinite rate).
+    """
+    top = float(np.max(axis_turn_rate(centre, axis), initial=0.0))
+    return round(math.degrees(top), 4) if math.isfinite(top) else None
 
 
 def axis_breaks(centre: Array, axis: Array, max_rate: float) -> NDArray[np.intp]:

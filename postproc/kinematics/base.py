@@ -227,8 +227,8 @@ class Kinematics(Protocol):
             Source record of each pose, quoted in an ``OverTravelError``.
         keep_branch : (n,) bool, optional
             Moves (into pose i) that must not change the inverse branch: feed moves
-            whose tool axis does not pass the C axis (see ``postproc.linearise.
-            keeps_branch``). Kinematics with a single branch may ignore it.
+            whose tool axis does not pass the C axis (``postproc.pole.keeps_branch``).
+            Kinematics with a single branch may ignore it.
 
         Returns
         -------

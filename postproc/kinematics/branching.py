@@ -17,7 +17,7 @@ one winding per pose so that
 5. where the caller asks for it (``keep``: feed moves whose tool axis does not pass
    the C axis), the move into a pose stays on the branch of the pose before: a
    branch change turns the tilt through 0, i.e. the tool axis through the C axis,
-   which such a move does not do (``postproc.linearise.keeps_branch``).
+   which such a move does not do (``postproc.pole.keeps_branch``).
 
 Rule 2 is a Viterbi dynamic programme over the two branches (two states per pose,
 four transitions), run in numba: linear in ``n``, no Python loop per pose. Ties go

@@ -369,7 +369,7 @@ class TableTiltingRotary:
         keep_branch : (n,) bool, optional
             ``keep_branch[i]``: the move into pose ``i`` stays on the branch of pose
             ``i - 1`` (a feed move whose tool axis does not pass the C axis:
-            ``postproc.linearise.keeps_branch``). Where the limits allow no such
+            ``postproc.pole.keeps_branch``). Where the limits allow no such
             sequence the constraint is dropped (the post then refuses the move that
             changes branch, naming its record).
 

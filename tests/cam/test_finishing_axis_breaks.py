@@ -6,7 +6,7 @@ lean flipping within 2 mm (axis (0.077, -0.191, 0.979) -> (0.111, 0.099, 0.989),
 deg): the feed move could not be posted. The planner now cuts such a pass where the
 axis turns faster than ``max_axis_turn_deg_per_mm`` (``posture.axis_breaks``), the
 pieces are linked through the air (``order.ordered_passes``, ``PassEnds.from_air``),
-and the post keeps feed moves on their inverse branch (``linearise.keeps_branch``).
+and the post keeps feed moves on their inverse branch (``pole.keeps_branch``).
 """
 
 from __future__ import annotations

@@ -16,13 +16,13 @@ from postproc.linearise import (
     SAMPLES,
     arc_distance,
     joints_near,
-    keeps_branch,
     linear_joints,
     linearise,
     segment_distance,
     slerp,
 )
 from postproc.machine import load_machine
+from postproc.pole import keeps_branch
 
 ROOT = Path(__file__).resolve().parents[2]
 SIM = load_machine(ROOT / "fixtures" / "machines" / "xyzac-trt.toml")
