@@ -285,6 +285,7 @@ def linearise(
     tcp: bool = False,
     singular_tilt: float = 1e-9,
     records: NDArray[np.int64] | None = None,
+    where: str = "",
 ) -> Linearised:
     """Split the checked segments of a pose sequence into blocks within tolerance.
 
@@ -309,6 +310,8 @@ def linearise(
         Tilt below which C is undefined, rad.
     records : (n,) int64, optional
         APT record of each pose, for error messages.
+    where : str
+        What the poses are (file, operation), for error messages.
 
     Returns
     -------
@@ -331,7 +334,8 @@ def linearise(
             part = linearise(kins, tip[start:stop], axis[start:stop], joints[start:stop],
                              np.asarray(check)[start:stop], chordal, angular, tcp=tcp,
                              singular_tilt=singular_tilt,
-                             records=None if records is None else records[start:stop])
+                             records=None if records is None else records[start:stop],
+                             where=where)
             part.segment += start
             parts.append(part)
         return Linearised(*(np.concatenate([getattr(p, f) for p in parts])
@@ -439,10 +443,13 @@ def linearise(
     if len(seg):
         first = int(seg.min())
         record = None if records is None else int(records[first])
-        where = f"segment to pose {first}" + (f" (record {record})" if record is not None else "")
+        place = f"segment to pose {first}" + (f" (record {record})" if record is not None else "")
+        place = f"{where}, {place}" if where else place
+        turn = np.degrees(joints[first, 3:] - joints[first - 1, 3:])
         raise InputError(
-            f"{where}: cannot keep the tool within the chordal/angular tolerance by "
-            "splitting the move (a C re-wind or a rotary branch change inside a feed move, or "
+            f"{place}: cannot keep the tool within the chordal/angular tolerance by "
+            f"splitting the move (the rotary joints turn by {turn[0]:.3f} and {turn[1]:.3f} "
+            "deg in it: a C re-wind or a rotary branch change inside a feed move, or "
             "an axis passing closer to the C axis than the angular tolerance?)",
             field="GOTO",
             value=record,

@@ -3,7 +3,8 @@
 ``post_toolpaths`` does everything that does not depend on the G-code dialect:
 
 1. inverse kinematics of every CL pose (continuous branch, C unwound, travel limits
-   checked with the APT record named in the error),
+   checked with the APT record named in the error; a feed move keeps its branch
+   unless its tool axis passes the C axis, ``pole.keeps_branch``),
 2. rotary linearisation of simultaneous feed moves (``postproc.linearise``),
 3. safe retract and re-orientation before the first operation, at tool changes and
    before every rapid move that turns a rotary axis, except checked links
@@ -36,6 +37,7 @@ from postproc.feeds import ROTARY_STILL, block_feeds
 from postproc.kinematics import kinematics_for
 from postproc.kinematics.base import Kinematics
 from postproc.linearise import lever_bound, linearise
+from postproc.pole import keeps_branch
 from postproc.posts.numbers import modal_changes, quantise
 from postproc.program import FeedMode, MachineProgram, Motion
 from postproc.toolpath import Cutter, MoveKind, Toolpath
@@ -285,8 +287,10 @@ def post_toolpaths(
         length = float(options.tool_lengths.get(tp.tool_number, 0.0))
         records = tp.source_records.astype(np.int64)
         previous = None if prev_q is None else prev_q + length * ez
+        # feed moves stay on their inverse branch unless their axis passes the C axis
+        keep = keeps_branch(tp.axis, tp.kind != MoveKind.RAPID, options.angular_tolerance)
         q = kins.inverse(tp.tip, tp.axis, tool_length=length, previous=previous,
-                         records=records) - length * ez
+                         records=records, keep_branch=keep if keep.any() else None) - length * ez
         tool_change = options.tool_change and tp.tool_number != prev_tool
         if prev_q is None:
             active_length = 0.0 if options.tool_change else length
@@ -335,7 +339,8 @@ def post_toolpaths(
                 f"{degrees(4 * axis_err):.2g} deg, or more decimals",
             )
         lin = linearise(kins, tips, axes, joints, check, chordal, angular, tcp=options.tcp,
-                        singular_tilt=DEFAULT_TOLERANCES.singular_tilt, records=recs)
+                        singular_tilt=DEFAULT_TOLERANCES.singular_tilt, records=recs,
+                        where=f"{source + ': ' if source else ''}operation {tp.name}")
         seg = lin.segment
         motion = np.where(kinds[seg] == MoveKind.RAPID, Motion.RAPID, Motion.LINEAR)
         # checked links: joint-mode rapids, as their planner checked them

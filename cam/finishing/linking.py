@@ -41,7 +41,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam.finishing.envelope import Envelope, retract_length, stepped_link
+from impeller_cam.tolerances import DEFAULT_TOLERANCES
 from postproc.kinematics.base import OverTravelError
+from postproc.pole import keeps_branch
 from postproc.toolpath import Cutter, MoveKind, Toolpath
 
 if TYPE_CHECKING:
@@ -118,6 +120,10 @@ class PassEnds:
         posture (contact normal; at a junction the sum of hub and blade normals).
     joints_start, joints_end : (5,) float64
         Machine joints of the first and last posture (branch and winding reference).
+    from_air : bool
+        The pass goes on from the previous one past a turn of the tool axis too fast
+        for a cut (``posture.axis_breaks``): it is entered from the air, never by a
+        feed link.
     """
 
     name: str
@@ -127,6 +133,7 @@ class PassEnds:
     escape_end: Array
     joints_start: Array
     joints_end: Array
+    from_air: bool = False
 
 
 @dataclass
@@ -248,7 +255,10 @@ class Linker:
         axes = np.stack([a.axis[-1], b.axis[0]])
         if not 0.0 < float(np.linalg.norm(tips[1] - tips[0])) <= r.feed_link:
             return False
-        q = self._inverse(tips, axes, a.joints_end)
+        # a feed move: the post keeps its branch unless its axis passes the C axis
+        keep = keeps_branch(axes, np.array([False, True]), DEFAULT_TOLERANCES.angular)
+        q = self.kins.inverse(tips, axes, previous=a.joints_end,
+                              keep_branch=keep if keep.any() else None)
         if float(np.abs(q[1, 3:] - q[0, 3:]).max()) > _FEED_LINK_TURN:
             return False
         return self._feed_free(tips, axes)
@@ -281,14 +291,15 @@ class Linker:
         """
         starts = [self.escape(p.tip[0], p.axis[0], p.escape_start) for p in passes]
         ends = [self.escape(p.tip[-1], p.axis[-1], p.escape_end) for p in passes]
-        stepover = [self.feed_link(a, b) for a, b in zip(passes[:-1], passes[1:], strict=True)]
+        stepover = [not b.from_air and self.feed_link(a, b)
+                    for a, b in zip(passes[:-1], passes[1:], strict=True)]
         floor: dict[int, int] = {}
         for _ in range(_ROUNDS):
             moves, air, reports, owner = self._build(passes, starts, ends, stepover, floor)
             tip = np.array(moves.tip)
             axis = _unit(np.array(moves.axis))
             link = np.array(moves.link, bool)
-            bad = self._moved(tip, axis, link, moves.delta)
+            bad = self._moved(tip, axis, link, moves.delta, np.array(moves.kind))
             raise_links = {owner[row] for row in bad if owner[row] >= 0}
             if not raise_links:
                 break
@@ -390,16 +401,18 @@ class Linker:
         return moves, air, reports, owner
 
     def _moved(self, tip: Array, axis: Array, link: NDArray[np.bool_],
-               delta: dict[int, Array]) -> list[int]:
-        """Checked-link rows the post's joints (the whole operation's inverse kinematics)
-        move otherwise than the pair they were checked with, and that are not clear.
+               delta: dict[int, Array], kind: NDArray[np.int8]) -> list[int]:
+        """Checked-link rows the post's joints (the whole operation's inverse kinematics,
+        feed moves kept on their branch as the post keeps them: ``keeps_branch``) move
+        otherwise than the pair they were checked with, and that are not clear.
 
         When the machine cannot reach some pose of the operation (a retract beyond its
         travel), no program can be posted from it (the post refuses it with the same
         over-travel error), so there is nothing to re-check here.
         """
+        keep = keeps_branch(axis, kind != MoveKind.RAPID, DEFAULT_TOLERANCES.angular)
         try:
-            joints = self.kins.inverse(tip, axis)
+            joints = self.kins.inverse(tip, axis, keep_branch=keep if keep.any() else None)
         except OverTravelError:
             return []
         bad = []

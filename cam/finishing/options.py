@@ -100,6 +100,13 @@ class FinishOptions:
         Least path length over which a repair is blended into the A and C curves, mm.
     repair_rounds : int
         Search-and-blend rounds before the remaining postures are reported.
+    max_axis_turn_deg_per_mm : float
+        Fastest turn of the tool axis along a hub pass, deg per mm of ball-centre path.
+        A hub pass whose axis turns faster between two postures (it changes side,
+        e.g. across the C axis where a small axis change is a large C change) is
+        split there: the tool lifts, turns in the air and comes back
+        (``posture.axis_breaks``, finish.json ``axis_breaks``). nine_blade's hub
+        passes turn by at most 1.47 deg/mm (docs/finishing.md).
     cutter_allowance_mm : float
         The ball is checked shrunk by this much so that it may touch the surfaces
         it cuts (must exceed the scene tessellation error), mm.
@@ -178,6 +185,7 @@ class FinishOptions:
     repair_margin_mm: float = 0.05
     repair_blend_mm: float = 5.0
     repair_rounds: int = 6
+    max_axis_turn_deg_per_mm: float = 5.0
     cutter_allowance_mm: float = 0.05
     clearance_mm: float = DEFAULT_TOLERANCES.clearance
     stock_clearance_mm: float = DEFAULT_TOLERANCES.clearance
@@ -206,7 +214,8 @@ class FinishOptions:
                     "linear_deadband_mm", "delta_c_deg", "tilt_search_deg",
                     "tilt_search_step_deg", "repair_blend_mm", "motion_step_mm",
                     "motion_step_deg", "retract_clearance_mm", "link_step_deg", "departure_mm",
-                    "tessellation_mm", "stock_voxel_mm", "swarf_ruling_step_mm")
+                    "tessellation_mm", "stock_voxel_mm", "swarf_ruling_step_mm",
+                    "max_axis_turn_deg_per_mm")
         for name in positive:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):

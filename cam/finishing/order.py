@@ -7,6 +7,11 @@ reversed pass has the same postures in reverse order: its A and C still move one
 way (reversed), the posture rules (normal angle, lead and tilt limits) hold as they
 are symmetric in the feed direction; what changes is the cutting sense (climb and
 conventional alternate). ``zigzag=False`` keeps every pass leading to trailing edge.
+
+A pass with ``breaks`` (a hub pass whose tool axis turns too fast somewhere,
+``posture.axis_breaks``) is handed on as its pieces (``posture.axis_pieces``) in
+machining order; each piece after the first is entered from the air
+(``PassEnds.from_air``: never by a feed link), so the tool changes side lifted.
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ from numpy.typing import NDArray
 
 from cam.finishing.linking import PassEnds
 from cam.finishing.plan import PathResult
+from cam.finishing.posture import axis_pieces
 
 __all__ = ["escape_normal", "ordered_passes"]
 
@@ -53,15 +59,26 @@ def ordered_passes(results: Sequence[PathResult], zigzag: bool = True) -> list[P
     for r in results:
         if r.path.passage != passage:
             passage, count = r.path.passage, 0
-        first, last = 0, len(r.tip) - 1
-        tip, axis, joints = r.tip, r.axis, r.joints_after
-        if zigzag and count % 2 == 1:
-            tip, axis, joints = tip[::-1], axis[::-1], joints[::-1]
-            first, last = last, first
-        out.append(PassEnds(
-            name=r.path.name + (" (reversed)" if first else ""),
-            tip=np.ascontiguousarray(tip), axis=np.ascontiguousarray(axis),
-            escape_start=escape_normal(r, first), escape_end=escape_normal(r, last),
-            joints_start=np.asarray(joints[0]), joints_end=np.asarray(joints[-1])))
+        n = len(r.tip)
+        order = np.arange(n, dtype=np.intp)
+        reverse = zigzag and count % 2 == 1
+        if reverse:
+            order = order[::-1]
+        # breaks in machining order: move i -> i + 1 becomes move n - 2 - i reversed
+        breaks = np.sort(n - 2 - r.breaks) if reverse else r.breaks
+        pieces = axis_pieces(n, breaks)
+        for k, piece in enumerate(pieces):
+            rows = order[piece]
+            label = " (reversed)" if reverse else ""
+            if len(pieces) > 1:
+                label += f" (piece {k + 1} of {len(pieces)})"
+            out.append(PassEnds(
+                name=r.path.name + label,
+                tip=np.ascontiguousarray(r.tip[rows]), axis=np.ascontiguousarray(r.axis[rows]),
+                escape_start=escape_normal(r, int(rows[0])),
+                escape_end=escape_normal(r, int(rows[-1])),
+                joints_start=np.asarray(r.joints_after[rows[0]]),
+                joints_end=np.asarray(r.joints_after[rows[-1]]),
+                from_air=k > 0))
         count += 1
     return out

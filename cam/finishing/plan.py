@@ -25,10 +25,12 @@ from cam.finishing.passes import passage_paths
 from cam.finishing.paths import CutterPath, blade_distance, rotate_path, subset_path
 from cam.finishing.posture import (
     angle_between,
+    axis_breaks,
     c_max,
     enforce_normal_angle,
     initial_axes,
     lead_tilt,
+    max_turn_deg_per_mm,
     rotate_about_z,
 )
 from cam.finishing.repair import PostureRules, RepairResult, repair_postures, rule_violations
@@ -109,6 +111,9 @@ class PathResult:
     step_hint : StepHint or None
         What the eq. 7 remedy found (a proven-before-used guess for the same path in
         the next passage; ``interference.StepHint``).
+    breaks : (k,) intp
+        Hub passes: moves ``i -> i + 1`` turning the axis faster than the option
+        ``max_axis_turn_deg_per_mm``: machined in pieces (``order.ordered_passes``).
     """
 
     path: CutterPath
@@ -130,6 +135,7 @@ class PathResult:
     rule_points: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
     trimmed: int = 0
     step_hint: StepHint | None = None
+    breaks: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
 
     def summary(self, options: FinishOptions) -> dict[str, Any]:
         """This path's entry of finish.json (mm, deg)."""
@@ -177,6 +183,8 @@ class PathResult:
                 options.min_normal_angle_deg) - 1e-9).sum()),
             "rule_violation_points": self.rule_points.tolist(),
             "trimmed_points": self.trimmed,
+            "axis_breaks": self.breaks.tolist(),
+            "max_axis_turn_deg_per_mm": max_turn_deg_per_mm(self.path.centre, self.axis),
             "posture_repair": None if self.repair is None else {
                 "rounds": self.repair.rounds,
                 "tilted_points": self.repair.tilted.tolist(),
@@ -324,10 +332,12 @@ def _finish_once(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collisio
     if surfaces is not None and path.operation == "junction":
         junction = junction_errors(path, centre_now, surfaces.hub, radius,
                                    surfaces.spec.pitch)
+    breaks = axis_breaks(centre_now, inter.axis, math.radians(  # hub: side changes in the air
+        options.max_axis_turn_deg_per_mm if path.operation == "hub" else math.inf))
     return PathResult(path, inter.tip, inter.axis, joints0, joints, before, after,
                       points_before, smoothing, inter, deviation, junction, lead, tilt,
                       angle_between(inter.axis, path.normal), repair, rule_points,
-                      step_hint=step_hint)
+                      step_hint=step_hint, breaks=breaks)
 
 
 @dataclass
@@ -399,6 +409,7 @@ class FinishResult:
             "lead_tilt_violations": int(sum(e["lead_tilt_violations"] for e in entries)),
             "normal_angle_violations": int(sum(e["normal_angle_violations"] for e in entries)),
             "rule_violation_paths": [e["name"] for e in entries if e["rule_violation_points"]],
+            "axis_breaks": int(sum(len(e.get("axis_breaks", [])) for e in entries)),
             "posture_repairs": {
                 "paths": sum(1 for e in entries if e["posture_repair"]),
                 "tilted_points": int(sum(len(e["posture_repair"]["tilted_points"])

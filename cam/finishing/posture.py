@@ -12,11 +12,18 @@
 * ``c_max`` (eq. 7): ``Cmax = acos(EC . EF / (|EC| |EF|))`` with E the ball
   centre, EC along the initial tool axis and F the opposite wall's tip point: turning
   further would swing the tool across the passage into the opposite blade.
+* ``axis_breaks`` / ``axis_pieces``: where the axis turns faster than a bound (deg
+  per mm of ball-centre path) between two postures, the pass is cut into pieces
+  machined one after the other with a lift in between: a side change of the tool
+  (near the C axis a few degrees of axis are a large C turn) happens in the air,
+  not inside a feed move.
 
 Every function is vectorised over ``(n, 3)`` rows; angles in radians.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,10 +31,14 @@ from numpy.typing import NDArray
 __all__ = [
     "angle_between",
     "away_sign",
+    "axis_breaks",
+    "axis_pieces",
+    "axis_turn_rate",
     "c_max",
     "enforce_normal_angle",
     "initial_axes",
     "lead_tilt",
+    "max_turn_deg_per_mm",
     "rotate_about_z",
 ]
 
@@ -145,3 +156,76 @@ def c_max(centre: Array, initial_axis: Array, opposite_tip: Array) -> Array:
     axis, F the opposite wall's tip point.
     """
     return angle_between(_unit(initial_axis), _unit(opposite_tip - centre))
+
+
+def axis_turn_rate(centre: Array, axis: Array) -> Array:
+    """Turn of the tool axis per mm of ball-centre path between consecutive postures.
+
+    Parameters
+    ----------
+    centre : (n, 3) float64
+        Ball centres, mm.
+    axis : (n, 3) float64
+        Unit tool axes.
+
+    Returns
+    -------
+    (n - 1,) float64
+        ``angle(a_i, a_{i+1}) / |c_{i+1} - c_i|``, rad/mm (inf for a turn on the spot).
+    """
+    turn = angle_between(axis[:-1], axis[1:])
+    step = np.linalg.norm(np.diff(centre, axis=0), axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rate = np.where(turn > 0.0, turn / step, 0.0)
+    return np.asarray(rate)
+
+
+def max_turn_deg_per_mm(centre: Array, axis: Array) -> float | None:
+    """Fastest ``axis_turn_rate`` of a pass in deg/mm (finish.json), rounded to 1e-4.
+
+    0 for a single posture; None for a turn without moving the ball (infinite rate).
+    """
+    top = float(np.max(axis_turn_rate(centre, axis), initial=0.0))
+    return round(math.degrees(top), 4) if math.isfinite(top) else None
+
+
+def axis_breaks(centre: Array, axis: Array, max_rate: float) -> NDArray[np.intp]:
+    """Moves along which the tool axis turns faster than ``max_rate``.
+
+    Parameters
+    ----------
+    centre, axis : (n, 3) float64
+        Ball centres (mm) and unit tool axes of a pass.
+    max_rate : float
+        Fastest allowed turn, rad per mm of ball-centre path.
+
+    Returns
+    -------
+    (k,) intp
+        Increasing ``i``: the move from posture ``i`` to ``i + 1`` is too fast.
+    """
+    return np.asarray(np.flatnonzero(axis_turn_rate(centre, axis) > max_rate), dtype=np.intp)
+
+
+def axis_pieces(count: int, breaks: NDArray[np.intp]) -> list[NDArray[np.intp]]:
+    """Posture indices of the pieces of a pass cut at ``breaks`` (``axis_breaks``).
+
+    A piece of a single posture (two breaks in a row, or one at an end) is dropped:
+    a feed move needs two postures, and that posture's ball is a point of the
+    neighbouring pieces' scallop anyway.
+
+    Parameters
+    ----------
+    count : int
+        Postures of the pass.
+    breaks : (k,) intp
+        Moves ``i -> i + 1`` not to be cut.
+
+    Returns
+    -------
+    list of (m,) intp
+        Consecutive indices, in pass order; the whole pass when there is no break.
+    """
+    bounds = np.concatenate([[0], np.asarray(breaks, dtype=np.intp) + 1, [count]])
+    return [np.arange(a, b, dtype=np.intp) for a, b in zip(bounds[:-1], bounds[1:],
+                                                           strict=True) if b - a >= 2]

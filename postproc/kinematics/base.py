@@ -209,6 +209,7 @@ class Kinematics(Protocol):
         previous: NDArray[np.float64] | None = None,
         *,
         records: NDArray[np.int64] | None = None,
+        keep_branch: NDArray[np.bool_] | None = None,
     ) -> NDArray[np.float64]:
         """Tool poses -> joints on the continuous, least-travel branch.
 
@@ -224,6 +225,10 @@ class Kinematics(Protocol):
             Joints before the first pose (mm, rad).
         records : (n,) int64, optional
             Source record of each pose, quoted in an ``OverTravelError``.
+        keep_branch : (n,) bool, optional
+            Moves (into pose i) that must not change the inverse branch: feed moves
+            whose tool axis does not pass the C axis (``postproc.pole.keeps_branch``).
+            Kinematics with a single branch may ignore it.
 
         Returns
         -------

@@ -13,7 +13,11 @@ one winding per pose so that
    winding leaves the C range is the nearest winding inside the range taken (a
    re-wind, visible as a C step of 2 pi in the result and in ``c_swing_report``),
 4. at singular poses (tool axis on the C axis, C undefined) C keeps its previous
-   value; singular poses before the first defined C take that first C.
+   value; singular poses before the first defined C take that first C,
+5. where the caller asks for it (``keep``: feed moves whose tool axis does not pass
+   the C axis), the move into a pose stays on the branch of the pose before: a
+   branch change turns the tilt through 0, i.e. the tool axis through the C axis,
+   which such a move does not do (``postproc.pole.keeps_branch``).
 
 Rule 2 is a Viterbi dynamic programme over the two branches (two states per pose,
 four transitions), run in numba: linear in ``n``, no Python loop per pose. Ties go
@@ -55,6 +59,7 @@ def _least_travel(
     c_raw: NDArray[np.float64],
     feasible: NDArray[np.bool_],
     singular: NDArray[np.bool_],
+    keep: NDArray[np.bool_],
     has_previous: bool,
     previous_tilt: float,
     previous_c: float,
@@ -115,6 +120,8 @@ def _least_travel(
                 p = b if k == 0 else 1 - b
                 if cost[p] == inf:
                     continue
+                if k == 1 and keep[i] and not singular[i] and not singular[i - 1]:
+                    continue
                 c_prev = c_state[i - 1, p]
                 if singular[i]:
                     c = c_prev
@@ -149,6 +156,7 @@ def least_travel_path(
     singular: NDArray[np.bool_],
     c_range: tuple[float, float],
     previous: tuple[float, float] | None = None,
+    keep: NDArray[np.bool_] | None = None,
 ) -> tuple[NDArray[np.int8], NDArray[np.float64], int]:
     """Pick a branch and an unwound C per pose (see the module docstring for the rule).
 
@@ -166,6 +174,10 @@ def least_travel_path(
         C limits, rad (``-inf``/``inf`` for a continuous axis).
     previous : (float, float), optional
         Tilt and C joints before the first pose, rad.
+    keep : (n,) bool, optional
+        ``keep[i]``: the move from pose ``i - 1`` into pose ``i`` keeps the branch
+        (unless one of the two poses is singular); ``keep[0]`` is ignored. Default:
+        no such constraint.
 
     Returns
     -------
@@ -178,11 +190,16 @@ def least_travel_path(
     """
     has_previous = previous is not None
     previous_tilt, previous_c = previous if previous is not None else (0.0, 0.0)
+    n = np.shape(singular)[0]
+    kept = np.zeros(n, dtype=np.bool_) if keep is None else np.asarray(keep, dtype=np.bool_)
+    if kept.shape != (n,):
+        raise ValueError(f"keep has shape {kept.shape}, expected ({n},)")
     return _least_travel(  # type: ignore[no-any-return]
         np.ascontiguousarray(tilt, dtype=np.float64),
         np.ascontiguousarray(c_raw, dtype=np.float64),
         np.ascontiguousarray(feasible, dtype=np.bool_),
         np.ascontiguousarray(singular, dtype=np.bool_),
+        np.ascontiguousarray(kept),
         has_previous,
         float(previous_tilt),
         float(previous_c),

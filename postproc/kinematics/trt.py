@@ -350,6 +350,7 @@ class TableTiltingRotary:
         previous: NDArray[np.float64] | None = None,
         *,
         records: NDArray[np.int64] | None = None,
+        keep_branch: NDArray[np.bool_] | None = None,
     ) -> NDArray[np.float64]:
         """Tool poses in W -> joints, continuous and least rotary travel within limits.
 
@@ -365,6 +366,12 @@ class TableTiltingRotary:
             Joints before the first pose; the path starts next to them.
         records : (n,) int64, optional
             Source record of each pose, quoted in an over-travel error.
+        keep_branch : (n,) bool, optional
+            ``keep_branch[i]``: the move into pose ``i`` stays on the branch of pose
+            ``i - 1`` (a feed move whose tool axis does not pass the C axis:
+            ``postproc.pole.keeps_branch``). Where the limits allow no such
+            sequence the constraint is dropped (the post then refuses the move that
+            changes branch, naming its record).
 
         Returns
         -------
@@ -404,7 +411,11 @@ class TableTiltingRotary:
                     "previous joints must be finite", field="previous", value=prev.tolist()
                 )
             start = (float(prev[3]), float(prev[4]))
-        branch, c, failed = least_travel_path(tilt, c_raw, feasible, singular, c_range, start)
+        branch, c, failed = least_travel_path(tilt, c_raw, feasible, singular, c_range, start,
+                                              keep_branch)
+        if failed >= 0 and keep_branch is not None:
+            branch, c, failed = least_travel_path(tilt, c_raw, feasible, singular, c_range,
+                                                  start)
         if failed >= 0:
             raise self._explain(candidates[:, failed], failed, c_range, records)
         rows = np.arange(n)

@@ -22,6 +22,7 @@ from postproc.linearise import (
     slerp,
 )
 from postproc.machine import load_machine
+from postproc.pole import keeps_branch
 
 ROOT = Path(__file__).resolve().parents[2]
 SIM = load_machine(ROOT / "fixtures" / "machines" / "xyzac-trt.toml")
@@ -142,3 +143,88 @@ def test_rewind_inside_a_feed_move_is_an_input_error() -> None:
     with pytest.raises(InputError, match="record 7"):
         linearise(KINS, tip, axis, joints, np.array([False, True]), 0.01, radians(0.5),
                   records=np.array([5, 7]))
+
+
+def _tilted(tilt_deg: float, azimuth_deg: float) -> np.ndarray:
+    """Unit axis ``tilt_deg`` off +Z towards azimuth ``azimuth_deg`` (from +X)."""
+    t, a = radians(tilt_deg), radians(azimuth_deg)
+    return np.array([np.sin(t) * np.cos(a), np.sin(t) * np.sin(a), np.cos(t)])
+
+
+def test_keeps_branch_only_off_the_pole() -> None:
+    """A feed move keeps its branch unless its great circle passes the C axis.
+
+    Hand cases: 10 deg tilt at azimuths 0 and 180 deg: the arc runs through the pole
+    (distance 0); azimuths 180 and 270: the arc's closest point to the pole is its
+    midpoint, tilt atan(tan 10 cos 45) = 7.10 deg; a move at a fixed axis (the last)
+    is a rapid here, so it is free.
+    """
+    axes = np.array([_tilted(10, 0), _tilted(10, 180), _tilted(10, 270), _tilted(10, 270)])
+    moving = np.array([False, True, True, False])
+    keep = keeps_branch(axes, moving, radians(0.5))
+    assert keep.tolist() == [False, False, True, False]
+    mid = (axes[1] + axes[2]) / np.linalg.norm(axes[1] + axes[2])
+    assert np.degrees(np.arccos(mid[2])) == pytest.approx(
+        np.degrees(np.arctan(np.tan(radians(10)) * np.cos(radians(45)))), abs=1e-9)
+    # with a tolerance wider than that closest approach the move may change branch
+    assert not keeps_branch(axes, moving, radians(7.2))[2]
+
+
+def _pose_pair(tilt0: float, az0: float, tilt1: float, az1: float, step: float = 2.0):
+    axis = np.stack([_tilted(tilt0, az0), _tilted(tilt1, az1)])
+    tip = np.array([[47.66, -64.14, 6.63], [47.66, -64.14 - step, 6.50]])
+    return tip, axis
+
+
+def test_lean_flip_near_a0_posts_on_one_branch() -> None:
+    """Issue 28's feed move: the axis turns 17 deg past the C axis within 2 mm.
+
+    (0.077, -0.191, 0.979) -> (0.111, 0.099, 0.989), tilt 11.9 -> 8.5 deg, the great
+    circle 6 deg off the pole. The least-travel branch choice changed branch there
+    (A -11.9 -> +8.6), which no split can linearise (the tilt would pass 0, the axis
+    through the pole, 6 deg off the arc). Kept on one branch, C turns by about 110 deg
+    while the axis moves 17 deg, and every block keeps the tolerances.
+    """
+    axis = np.array([[0.077072, -0.190875, 0.978584], [0.111314, 0.098743, 0.988868]])
+    axis /= np.linalg.norm(axis, axis=1)[:, None]
+    tip = np.array([[47.663250, -64.144373, 6.626507], [47.267144, -66.129689, 6.497209]])
+    free = KINS.inverse(tip, axis)
+    assert np.sign(free[0, 3]) != np.sign(free[1, 3])  # the old choice: a branch change
+    with pytest.raises(InputError, match=r"hub.apt: operation finish_hub, segment to pose 1 "
+                       r"\(record 62\).* turn by 20\.4\d\d and 70\.4"):
+        linearise(KINS, tip, axis, free, np.array([False, True]), 0.01, radians(0.5),
+                  records=np.array([61, 62]), where="hub.apt: operation finish_hub")
+    keep = keeps_branch(axis, np.array([False, True]), radians(0.5))
+    joints = KINS.inverse(tip, axis, keep_branch=keep)
+    assert np.sign(joints[0, 3]) == np.sign(joints[1, 3])
+    assert abs(np.degrees(joints[1, 4] - joints[0, 4])) == pytest.approx(110.0, abs=5.0)
+    _assert_within(tip, axis, joints, 0.01, radians(0.5))
+
+
+def _assert_within(tip, axis, joints, tol, angular) -> None:
+    out = linearise(KINS, tip, axis, joints, np.ones(len(tip), bool), tol, angular)
+    q = np.vstack([joints[:1], out.joints])
+    assert np.all(np.sign(q[:, 3]) == np.sign(q[0, 3]))  # one branch throughout
+    t = np.linspace(0.0, 1.0, 10 * (SAMPLES + 1) + 1)
+    samples = q[:-1, None, :] + t[None, :, None] * np.diff(q, axis=0)[:, None, :]
+    s_tip, s_axis = KINS.forward(samples.reshape(-1, 5))
+    seg = out.segment
+    d_axis = arc_distance(s_axis.reshape(len(seg), -1, 3), axis[seg - 1], axis[seg])
+    d_tip = segment_distance(s_tip.reshape(len(seg), -1, 3), tip[seg - 1], tip[seg])
+    assert d_axis.max() <= angular
+    assert d_tip.max() <= tol
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.floats(2.0, 25.0), st.floats(-180.0, 180.0), st.floats(2.0, 25.0),
+       st.floats(60.0, 170.0))
+def test_feed_moves_past_the_pole_post_within_tolerance(
+        tilt0: float, az0: float, tilt1: float, turn: float) -> None:
+    """Random feed moves whose axis swings round the C axis (1-25 deg tilt, 60-170 deg
+    of azimuth): kept on their branch, they linearise within both tolerances."""
+    tip, axis = _pose_pair(tilt0, az0, tilt1, az0 + turn)
+    keep = keeps_branch(axis, np.array([False, True]), radians(0.5))
+    if not keep[1]:  # the arc passes the pole: either branch is allowed
+        return
+    joints = KINS.inverse(tip, axis, keep_branch=keep)
+    _assert_within(tip, axis, joints, 0.01, radians(0.5))
