@@ -32,6 +32,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -96,7 +97,7 @@ def _low_lean(result: PathResult) -> int:
 
 def _plan_level(level: EdgeLevel, passage: int, pitch: float, tool: Tool, kins: Kinematics,
                 scene: CollisionScene, options: FinishOptions, surfaces: ImpellerSurfaces,
-                first: int) -> tuple[list[PathResult], int, int, dict[str, object] | None]:
+                first: int) -> tuple[list[PathResult], int, int, dict[str, Any] | None]:
     """Finish one level in ``passage`` from ladder rung ``first`` on.
 
     Returns the pieces (one unless the level was cut), the rung used, their count of

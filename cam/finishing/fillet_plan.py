@@ -30,6 +30,7 @@ import math
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -339,7 +340,7 @@ def _finish_all(base: list[CutterPath], surfaces: ImpellerSurfaces, tool: Tool,
     return FinishResult(results, tool, options, scene_source, extra={"cut_short": cut_short})
 
 
-def cut_short_entry(path: CutterPath, lost: NDArray[np.intp]) -> dict[str, object]:
+def cut_short_entry(path: CutterPath, lost: NDArray[np.intp]) -> dict[str, Any]:
     """finish.json's record of the points of a pass that were left out (``cut_short``):
     the pass, their indices in it, their ball centres (mm) and blade parameter u."""
     return {"path": path.name, "operation": path.operation, "points": len(path),

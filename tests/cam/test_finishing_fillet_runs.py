@@ -99,3 +99,69 @@ def test_the_cut_short_entry_names_the_points_left_out() -> None:
     assert entry["centres_mm"] == [[2.0, 0.0, 5.0], [3.0, 0.0, 5.0]]
     assert entry["curve_u"] == pytest.approx([0.1 * 2 / 7, 0.1 * 3 / 7], abs=1e-4)
     assert math.isfinite(entry["curve_u"][0])
+
+
+@pytest.mark.slow
+def test_the_splitter_leading_edge_fillet_is_covered() -> None:
+    """Splitter fixture, passage 0, the chain's fillet tool (ball4_taper, r = r_f = 2 mm)
+    and clearance (2.5 mm): the suction-side fillet passes of the splitter are clean
+    (no collision, shank and holder 2.5 mm off, no reverse movement), only postures
+    2-4 of the two lowest passes round the leading edge are left out, and the passes
+    leave at most the scallop on that fillet (before: postures 0-4 cut, 0.58 mm)."""
+    pytest.importorskip("OCP")
+    from pathlib import Path
+
+    from cam.collision import CollisionScene
+    from cam.finishing.fillet_cover import material_left
+    from cam.finishing.fillet_paths import fillet_passes, fillet_section, wall_interval
+    from cam.finishing.fillet_plan import choose_fillet_tool, neck_lean
+    from cam.finishing.options import FinishOptions
+    from cam.finishing.paths import passage_walls
+    from cam.finishing.scene import solid_meshes
+    from geometry.impeller import Impeller
+    from geometry.spec import load_spec
+    from postproc.kinematics import kinematics_for
+    from postproc.machine import load_machine
+
+    root = Path(__file__).resolve().parents[2]
+    scallop = 0.4
+    options = FinishOptions.from_mapping(dict(scallop_mm=scallop, point_spacing_mm=1.5,
+                                              clearance_mm=2.5, clearance_exact_mm=3.0,
+                                              passages=1))
+    impeller = Impeller(load_spec(root / "fixtures" / "impellers" / "splitter" / "spec.toml"))
+    surfaces = impeller.surfaces
+    scene = CollisionScene(solid_meshes(impeller, options.tessellation_mm))
+    kins = kinematics_for(load_machine(root / "fixtures" / "machines" / "trunnion-500.toml"))
+    tool = choose_fillet_tool(float(surfaces.spec.fillet_radius))
+    assert tool is not None and tool.name == "ball4_taper"
+    passes = [p for p in fillet_passes(surfaces, tool.radius, tool.radius, scallop, 1.5,
+                                       lean=neck_lean(tool, options.clearance_mm))
+              if ".splitter0.suction." in p.name]
+    centres = []
+    lost = {}
+    for path in passes:
+        pieces, left_out = finish_runs(path, tool, kins, scene, options, surfaces)
+        if left_out.size:
+            lost[path.name] = left_out.tolist()
+        for piece in pieces:
+            summary = piece.summary(options)
+            assert summary["collisions"] == summary["motion_collisions"] == 0, piece.path.name
+            assert summary["min_clearance_mm"] >= options.clearance_mm
+            assert summary["reversals_after"] == {"A": 0, "C": 0}
+            assert summary["rule_violation_points"] == []
+            np.testing.assert_allclose(piece.tip + tool.radius * piece.axis, piece.path.centre,
+                                       atol=1e-6)
+            centres.append(piece.path.centre)
+    assert set(lost) <= {"p0.fillet.splitter0.suction.00.le",
+                         "p0.fillet.splitter0.suction.01.le"}
+    assert all(set(v) <= {2, 3, 4} for v in lost.values()), lost
+    wall = next(w for pair in passage_walls(surfaces) for w in pair
+                if w.label == "splitter0.suction")
+    start, end = wall_interval(wall.side, 8)
+    section = fillet_section(surfaces, wall, np.linspace(start, end, 800))
+    angle = section.theta[:, None] * np.linspace(0.0, 1.0, 25)[None, :]
+    grid = section.centre[:, None, :] + tool.radius * (
+        np.cos(angle)[..., None] * section.e1[:, None, :]
+        + np.sin(angle)[..., None] * section.e2[:, None, :])
+    left = material_left(grid.reshape(-1, 3), centres, tool.radius)
+    assert left.max() <= scallop, float(left.max())
