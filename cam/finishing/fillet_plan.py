@@ -250,14 +250,14 @@ def finish_runs(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collision
     lost = np.setdiff1d(np.arange(len(path), dtype=np.intp), covered)
     results = [piece for _, piece in pieces]
     if len(results) > 1:
-        results = [replace_name(piece, f"{path.name}.{k + 1}") for k, piece in enumerate(results)]
+        results = [_renamed(piece, f"{path.name}.{k + 1}") for k, piece in enumerate(results)]
     for piece in results:
         piece.trimmed = 0
     results[0].trimmed = len(path) - sum(len(piece.path) for piece in results)
     return results, lost
 
 
-def replace_name(result: PathResult, name: str) -> PathResult:
+def _renamed(result: PathResult, name: str) -> PathResult:
     """``result`` with its path renamed ``name`` (a piece of a pass)."""
     result.path = replace(result.path, name=name)
     return result
