@@ -363,6 +363,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         toolpaths = finish_toolpaths(result, surfaces, collision, kins)
         tools = {op: the_tool for op in toolpaths}
         swarf_entry = None
+        cut_short: list[dict[str, Any]] = []
         if flank is not None:
             swarf_entry = flank.extra["swarf"]
             if flank.paths:
@@ -374,12 +375,14 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                                progress=report)
             toolpaths.update(finish_toolpaths(edges, surfaces, collision, kins))
             tools.update({op: the_tool for op in edges.operations()})
+            cut_short += edges.extra["cut_short"]
             result = FinishResult([*result.paths, *edges.paths], the_tool, opts, scene)
         if fillet is not None:
             pencil = plan_fillet(surfaces, fillet, the_tool.radius, kins, collision, opts,
                                  scene_source=scene, progress=report)
             toolpaths.update(finish_toolpaths(pencil, surfaces, collision, kins))
             tools.update({op: fillet for op in pencil.operations()})
+            cut_short += pencil.extra["cut_short"]
             result = FinishResult([*result.paths, *pencil.paths], the_tool, opts, scene)
         link_collisions = {op: _check_links(collision, tools[op], tp, air, opts)
                            for op, (tp, air, _) in toolpaths.items()}
@@ -430,6 +433,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
             "link_collisions": int(sum(link_collisions.values())),
             "machine_model": machine_entry,
             "swarf": swarf_entry,
+            "cut_short": cut_short,
             "operations": operations,
             "paths": entries,
         }

@@ -21,7 +21,10 @@ M3 procedure (``fillet_plan.finish_trimmed``) every posture must still lean at l
 ``MIN_LEAN_DEG`` off the surface at its contact (``lean_at_contact``); a level that
 does not is planned again at the next lean of the ladder. Levels that reach the end
 of the ladder keep the last result, and their postures below the minimum lean are
-counted (``EdgeReport``).
+counted (``EdgeReport``). Like the fillet passes (``fillet_plan.finish_runs``) a
+level whose ends are trimmed keeps the clean runs of the trimmed points as pieces of
+their own (each also leaning at least ``MIN_LEAN_DEG`` everywhere), and the points
+left out are listed in finish.json's ``cut_short``.
 """
 
 from __future__ import annotations
@@ -29,13 +32,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from cam.collision import CollisionScene
 from cam.finishing.edge_paths import EdgeLevel, edge_levels
-from cam.finishing.fillet_plan import finish_trimmed
+from cam.finishing.fillet_plan import cut_short_entry, finish_runs
 from cam.finishing.interference import first_interference
 from cam.finishing.options import FinishOptions, scallop_stepover
 from cam.finishing.paths import CutterPath, rotate_path
@@ -85,17 +89,26 @@ def _witness(path: CutterPath, tool: Tool, scene: CollisionScene, options: Finis
                               np.arange(len(path), dtype=np.intp), options, first)
 
 
+def _low_lean(result: PathResult) -> int:
+    """Postures of a finished edge path leaning less than ``MIN_LEAN_DEG`` off the edge."""
+    return int(np.count_nonzero(lean_at_contact(result.axis, result.path.normal)
+                                < MIN_LEAN_DEG))
+
+
 def _plan_level(level: EdgeLevel, passage: int, pitch: float, tool: Tool, kins: Kinematics,
                 scene: CollisionScene, options: FinishOptions, surfaces: ImpellerSurfaces,
-                first: int) -> tuple[PathResult, int, int]:
+                first: int) -> tuple[list[PathResult], int, int, dict[str, Any] | None]:
     """Finish one level in ``passage`` from ladder rung ``first`` on.
 
-    Returns the result, the rung used and its count of postures below the minimum lean.
+    Returns the pieces (one unless the level was cut), the rung used, their count of
+    postures below the minimum lean and the ``cut_short`` entry (None: nothing left out).
     """
-    result: PathResult | None = None
+    pieces: list[PathResult] = []
+    lost = np.zeros(0, dtype=np.intp)
     low = 0
     rung = first
     witness: int | None = None
+    path = level.path
     for rung in range(first, len(LEAN_LADDER_DEG)):
         path = level.leaned(LEAN_LADDER_DEG[rung])
         if passage:
@@ -105,13 +118,13 @@ def _plan_level(level: EdgeLevel, passage: int, pitch: float, tool: Tool, kins: 
             if found >= 0:
                 witness = found
                 continue
-        result = finish_trimmed(path, tool, kins, scene, options, surfaces)
-        low = int(np.count_nonzero(lean_at_contact(result.axis, result.path.normal)
-                                   < MIN_LEAN_DEG))
-        if not low and not result.interference.interfering_points.size:
+        pieces, lost = finish_runs(path, tool, kins, scene, options, surfaces,
+                                   accept=lambda piece: not _low_lean(piece))
+        low = sum(_low_lean(piece) for piece in pieces)
+        if not low and not any(piece.interference.interfering_points.size for piece in pieces):
             break
-    assert result is not None
-    return result, rung, low
+    assert pieces
+    return pieces, rung, low, (cut_short_entry(path, lost) if lost.size else None)
 
 
 def plan_edges(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
@@ -131,7 +144,8 @@ def plan_edges(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     -------
     FinishResult
         Paths of operation ``"edge"`` in passage order; ``extra["edge"]``: the
-        ``EdgeReport``.
+        ``EdgeReport``; ``extra["cut_short"]``: the points left out, per level
+        (``fillet_plan.cut_short_entry``).
     """
     levels = edge_levels(surfaces, tool.radius,
                          scallop_stepover(tool.radius, options.scallop_mm),
@@ -142,15 +156,22 @@ def plan_edges(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     report = EdgeReport()
     start = [0] * len(levels)
     results: list[PathResult] = []
+    cut_short = []
     total = count * len(levels)
+    done = 0
     for k in range(count):
         for i, level in enumerate(levels):
-            result, rung, low = _plan_level(level, k, pitch, tool, kins, scene, options,
-                                            surfaces, start[i])
+            pieces, rung, low, short = _plan_level(level, k, pitch, tool, kins, scene,
+                                                   options, surfaces, start[i])
             start[i] = rung  # the other passages are near rotations: start there
-            report.lean_deg[result.path.name] = LEAN_LADDER_DEG[rung]
-            report.low_lean_points[result.path.name] = low
-            results.append(result)
+            for piece in pieces:
+                report.lean_deg[piece.path.name] = LEAN_LADDER_DEG[rung]
+                report.low_lean_points[piece.path.name] = _low_lean(piece)
+            results += pieces
+            if short is not None:
+                cut_short.append(short)
+            done += 1
             if progress is not None:
-                progress(len(results), total, result.path.name)
-    return FinishResult(results, tool, options, scene_source, extra={"edge": report})
+                progress(done, total, pieces[0].path.name)
+    return FinishResult(results, tool, options, scene_source,
+                        extra={"edge": report, "cut_short": cut_short})

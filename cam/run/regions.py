@@ -22,8 +22,13 @@ outlet end the envelope test does not see that skin: on nine_blade 3,410 of the
 5,127 samples whose closest face is the cut trailing edge lay on it (up to 3.8 mm
 from the design), while the cut face itself (r 104.1 to 105.6 mm: a flat cut across
 the backswept blade, not a surface of revolution) is milled and stays judged.
-``region_summary`` reports every group and the verdict: every milled group within the
-limit, no gouge, no stock short of the design.
+The splitters' faces are groups of their own (``splitter_`` before the name:
+``splitter_pressure``, ``splitter_suction``, ``splitter_fillet``,
+``splitter_leading_edge``, ``splitter_trailing_edge``, their ``_near_fillet`` strips
+and ``_beyond_shroud`` skin), judged against the same limit: every face of the design
+carries its blade (``cam.run.blade_owner``), and the main blades' groups keep the
+plain names. ``region_summary`` reports every group and the verdict: every milled
+group within the limit, no gouge, no stock short of the design.
 """
 
 from __future__ import annotations
@@ -36,11 +41,13 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
+from cam.run.blade_owner import splitter_points
+from cam.run.meridional import passage_position, shroud_offset
 from cam.verify.deviation import Deviation
 from cam.verify.stock import default_threads
 
-__all__ = ["ACCEPTANCE_ROLES", "LATHE_ROLES", "LabelledDesign", "blade_radius",
-           "closest_roles", "face_groups",
+__all__ = ["ACCEPTANCE_ROLES", "BLADE_ROLES", "LATHE_ROLES", "SPLITTER", "LabelledDesign",
+           "blade_radius", "closest_roles", "face_groups",
            "near_faces", "on_tip_edge", "passage_position", "region_summary", "role_table",
            "shroud_offset"]
 
@@ -55,6 +62,10 @@ TIP_SIDED = ("pressure", "suction", "leading_edge", "trailing_edge")
 FILLET_NEIGHBOURS = ("pressure", "suction", "hub")
 #: Faces turned on the lathe, not milled: back face, bore, rim, hub nose, blade tips.
 LATHE_ROLES = ("back", "bore", "rim", "nose", "shroud")
+#: Roles of a blade's own faces: a splitter's are grouped apart (``SPLITTER`` + name).
+BLADE_ROLES = ("pressure", "suction", "fillet", "leading_edge", "trailing_edge")
+#: Prefix of the splitters' face groups.
+SPLITTER = "splitter_"
 #: A sample whose closest tip-face point is this close to its closest design point has
 #: its foot on the tip's edge, mm (the two faces share the edge's vertices).
 ON_EDGE = 1e-6
@@ -186,86 +197,6 @@ def on_tip_edge(triangles: NDArray[np.float64], roles: NDArray[np.str_],
     return out
 
 
-def _polyline_fraction(zr: NDArray[np.float64], contour: NDArray[np.float64]
-                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Arc-length position (mm) of the closest point of a (z, r) polyline, and the distance.
-
-    Compiled (``geometry.mesh_query.polyline_projection``): a verified stock has tens of
-    millions of samples.
-
-    Parameters
-    ----------
-    zr : (n, 2) float64
-        Points in the meridional plane (z, r), mm.
-    contour : (k, 2) float64
-        The polyline (z, r), mm.
-    """
-    from geometry.mesh_query import polyline_projection
-
-    position, distance, _ = polyline_projection(zr, contour)
-    return position, distance
-
-
-def passage_position(points: NDArray[np.float64], hub: NDArray[np.float64],
-                     shroud: NDArray[np.float64], hub_edges: NDArray[np.float64],
-                     shroud_edges: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Meridional position of points between the blades' leading (0) and trailing (1) edge.
-
-    The point's (z, r) is projected on the hub and the shroud contours; on each the
-    position is normalised by that contour's leading- and trailing-edge points, and
-    the two are blended by the point's relative distance from hub and shroud.
-
-    Parameters
-    ----------
-    points : (n, 3) float64
-        Points in W, mm.
-    hub, shroud : (k, 2) float64
-        Meridional contours (z, r), mm.
-    hub_edges, shroud_edges : (2, 2) float64
-        (z, r) of the leading and trailing edge on each contour.
-
-    Returns
-    -------
-    (n,) float64
-        < 0 upstream of the leading edge, > 1 downstream of the trailing edge.
-    """
-    zr = np.column_stack([points[:, 2], np.hypot(points[:, 0], points[:, 1])])
-    m_h, d_h = _polyline_fraction(zr, hub)
-    m_s, d_s = _polyline_fraction(zr, shroud)
-    e_h, _ = _polyline_fraction(hub_edges, hub)
-    e_s, _ = _polyline_fraction(shroud_edges, shroud)
-    t_h = (m_h - e_h[0]) / (e_h[1] - e_h[0])
-    t_s = (m_s - e_s[0]) / (e_s[1] - e_s[0])
-    w = d_h / np.maximum(d_h + d_s, 1e-12)
-    return np.asarray((1.0 - w) * t_h + w * t_s)
-
-
-def shroud_offset(points: NDArray[np.float64], shroud: NDArray[np.float64],
-                  hub: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Signed meridional distance of points from the shroud contour, mm.
-
-    Positive on the side away from the hub (beyond the shroud envelope the blade tips
-    are turned to), negative towards the hub. Beyond the contour's ends the distance
-    is to the end point, signed by the end segment.
-
-    Parameters
-    ----------
-    points : (n, 3) float64
-        Points in W, mm.
-    shroud, hub : (k, 2) float64
-        Meridional contours (z, r), mm; they must not cross.
-    """
-    from geometry.mesh_query import polyline_projection
-
-    def side(p: NDArray[np.float64]) -> NDArray[np.float64]:
-        _, distance, cross = polyline_projection(p, shroud)
-        return np.where(cross < 0.0, -1.0, 1.0) * distance
-
-    zr = np.column_stack([points[:, 2], np.hypot(points[:, 0], points[:, 1])])
-    hub_side = float(np.sign(side(hub[len(hub) // 2][None])[0]))
-    return np.asarray(-hub_side * side(zr))
-
-
 def role_table(distance: NDArray[np.float64], limit: float, touched: NDArray[np.bool_]
                ) -> dict[str, Any]:
     """Summary of signed deviations (mm) of one group of samples against ``limit``."""
@@ -296,6 +227,10 @@ class LabelledDesign:
         this same object, so their deviations carry the closest face of every sample.
     face_roles : (f,) str
         Face role of each triangle of the design mesh (``Impeller.triangle_roles``).
+    face_splitter : (f,) bool
+        Whether each triangle of the design mesh is a splitter's face (one of
+        ``BLADE_ROLES`` whose centroid ``blade_owner.splitter_points`` places on a
+        splitter); all False without splitters.
     triangles : (t, 3, 3) float64
         The design triangles subdivided to edges <= 2 mm (``distance.triangles``), mm.
     roles : (t,) str
@@ -316,6 +251,11 @@ class LabelledDesign:
         self.meridional = (spec_.hub_contour, spec_.shroud_contour, edges[0], edges[1])
         mesh = impeller.mesh()
         self.face_roles = np.asarray(impeller.triangle_roles())
+        faces = np.asarray(mesh.faces, np.int64)
+        own = np.flatnonzero(np.isin(self.face_roles, BLADE_ROLES))
+        self.face_splitter = np.zeros(len(self.face_roles), dtype=bool)
+        centroids = np.asarray(mesh.vertices, np.float64)[faces[own]].mean(axis=1)
+        self.face_splitter[own] = splitter_points(impeller.surfaces, centroids)
         self.distance = DesignDistance(np.asarray(mesh.vertices, np.float64),
                                        np.asarray(mesh.faces, np.int64))
         self.triangles = self.distance.triangles
@@ -337,8 +277,8 @@ def blade_radius(design: LabelledDesign) -> float:
 
 def face_groups(design: LabelledDesign, points: NDArray[np.float64],
                 role: NDArray[np.str_], foot_distance: NDArray[np.float64],
-                near_fillet: float) -> tuple[dict[str, NDArray[np.bool_]],
-                                             dict[str, NDArray[np.bool_]]]:
+                near_fillet: float, splitter: NDArray[np.bool_] | None = None
+                ) -> tuple[dict[str, NDArray[np.bool_]], dict[str, NDArray[np.bool_]]]:
     """Split stock samples into milled face groups and lathe face groups.
 
     Parameters
@@ -352,6 +292,9 @@ def face_groups(design: LabelledDesign, points: NDArray[np.float64],
         Unsigned distance to that face, mm.
     near_fillet : float
         Width of the strips next to the fillets reported apart, mm.
+    splitter : (n,) bool, optional
+        Whether each sample's closest design face is a splitter's
+        (``LabelledDesign.face_splitter``); default none.
 
     Returns
     -------
@@ -362,8 +305,9 @@ def face_groups(design: LabelledDesign, points: NDArray[np.float64],
         ``hub_outside_blades`` (the axisymmetric inlet and outlet of the hub) and
         ``<role>_beyond_shroud`` (the blank's skin over the tips: samples of a blade
         side or edge beyond the shroud envelope, whose closest design point is on a
-        tip's edge, or radially beyond ``blade_radius``). Only groups with samples are
-        listed.
+        tip's edge, or radially beyond ``blade_radius``). The groups of a blade's
+        own faces (``BLADE_ROLES``) hold the main blades' samples; the splitters' are
+        the same names after ``SPLITTER``. Only groups with samples are listed.
     """
     triangles, labels = design.triangles, design.roles
     near = np.zeros(len(points), dtype=bool)
@@ -379,20 +323,30 @@ def face_groups(design: LabelledDesign, points: NDArray[np.float64],
     beyond[blade] = shroud_offset(points[blade], shroud_contour, hub_contour) > 0.0
     beyond[blade] |= on_tip_edge(triangles, labels, points[blade], foot_distance[blade])
     beyond[blade] |= np.hypot(points[blade, 0], points[blade, 1]) > blade_radius(design)
+    on_splitter = np.zeros(len(points), dtype=bool) if splitter is None else splitter
     milled: dict[str, NDArray[np.bool_]] = {}
     lathe: dict[str, NDArray[np.bool_]] = {}
+
+    def put(groups: dict[str, NDArray[np.bool_]], name: str, key: str,
+            mask: NDArray[np.bool_]) -> None:
+        if name not in BLADE_ROLES:
+            groups[key] = mask
+            return
+        groups[key] = mask & ~on_splitter
+        groups[SPLITTER + key] = mask & on_splitter
+
     for name in ACCEPTANCE_ROLES:
         sel = role == name
         inside = sel & (between if name == "hub" else ~beyond)
         if name in FILLET_NEIGHBOURS:
-            milled[name] = inside & ~near
-            milled[f"{name}_near_fillet"] = inside & near
+            put(milled, name, name, inside & ~near)
+            put(milled, name, f"{name}_near_fillet", inside & near)
         else:
-            milled[name] = inside
+            put(milled, name, name, inside)
         if name == "hub":
             lathe["hub_outside_blades"] = sel & ~between
         elif name in TIP_SIDED:
-            lathe[f"{name}_beyond_shroud"] = sel & beyond
+            put(lathe, name, f"{name}_beyond_shroud", sel & beyond)
     for name in sorted(set(role.tolist()) - set(ACCEPTANCE_ROLES)):
         lathe[name] = role == name
     return ({k: v for k, v in milled.items() if v.any()},
@@ -428,7 +382,8 @@ def region_summary(design: LabelledDesign, stock: str | Path | Deviation, allowa
     dict
         ``limit_mm`` (allowance + tolerance); ``acceptance`` {group: table}
         (``role_table``) for every milled face group (``face_groups``: blade sides,
-        hub between the blades, fillets, edges, the strips next to the fillets);
+        hub between the blades, fillets, edges, the strips next to the fillets; the
+        splitters' faces apart, ``splitter_<group>``);
         ``lathe`` {group: table} for the lathe-turned faces against
         ``lathe_limit_mm`` (``lathe_allowance`` + tolerance), listed, not judged;
         ``roles`` both together; ``gouge`` (a machined sample deeper than the
@@ -449,7 +404,8 @@ def region_summary(design: LabelledDesign, stock: str | Path | Deviation, allowa
     assert stock.faces is not None
     points, signed, moves = stock.points, stock.distance, stock.moves
     role = design.face_roles[stock.faces]
-    milled, lathe = face_groups(design, points, role, np.abs(signed), near_fillet)
+    milled, lathe = face_groups(design, points, role, np.abs(signed), near_fillet,
+                                design.face_splitter[stock.faces])
     limit = allowance + tolerance
     lathe_limit = lathe_allowance + tolerance
     touched = moves >= 0

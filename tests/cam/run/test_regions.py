@@ -72,7 +72,8 @@ def _flat_design() -> object:
     return SimpleNamespace(
         meridional=(hub, shroud, edges_h, edges_s), triangles=np.zeros((0, 3, 3)),
         roles=np.zeros(0, dtype="<U13"),
-        face_roles=np.array(["hub", "pressure", "leading_edge", "back"]))
+        face_roles=np.array(["hub", "pressure", "leading_edge", "back"]),
+        face_splitter=np.zeros(4, dtype=bool))
 
 
 def test_the_verdict_covers_every_milled_face_and_lists_lathe_faces_apart() -> None:
@@ -120,6 +121,7 @@ def test_skin_beyond_the_blades_largest_radius_is_lathe_work() -> None:
                                   point(5.0, 30.0)]])
     design.roles = np.array(["trailing_edge"])  # type: ignore[attr-defined]
     design.face_roles = np.array(["trailing_edge"])  # type: ignore[attr-defined]
+    design.face_splitter = np.zeros(1, dtype=bool)  # type: ignore[attr-defined]
     assert blade_radius(design) == pytest.approx(30.0)  # type: ignore[arg-type]
     points = np.array([point(5.0, 29.6), point(5.0, 31.5), point(8.0, 32.0)])
     moves = np.array([3, -1, 4])
@@ -133,3 +135,57 @@ def test_skin_beyond_the_blades_largest_radius_is_lathe_work() -> None:
     assert found["lathe"]["trailing_edge_beyond_shroud"]["within_limit"]
     # without blade triangles nothing is beyond: the radius is infinite
     assert blade_radius(_flat_design()) == np.inf  # type: ignore[arg-type]
+
+
+def test_the_splitters_faces_are_groups_of_their_own() -> None:
+    """Main blades' and splitters' samples of the same role are judged apart: the
+    splitter's leading edge fails alone, its pressure side beyond the shroud is lathe
+    skin of its own, the hub (one face) is not split."""
+    from cam.run.regions import region_summary
+    from cam.verify.deviation import Deviation
+
+    design = _flat_design()
+    design.face_roles = np.array(["hub", "pressure", "leading_edge", "back",  # type: ignore[attr-defined]
+                                  "pressure", "leading_edge"])
+    design.face_splitter = np.array([False, False, False, False, True, True])  # type: ignore[attr-defined]
+    points = np.array([point(0.1, 20.0), point(5.0, 20.0), point(5.0, 10.0),
+                       point(5.0, 20.0, 1.0), point(11.0, 20.0, 1.0), point(5.0, 12.0, 1.0)])
+    faces = np.array([0, 1, 2, 4, 4, 5])
+    moves = np.array([3, 4, 4, 4, -1, 4])
+    signed = np.array([0.1, 0.2, 0.1, 0.15, 1.5, 0.6])
+    found = region_summary(design, Deviation(points, signed, moves, faces),  # type: ignore[arg-type]
+                           0.2, 0.05, 2.0, lathe_allowance=2.0)
+    assert set(found["acceptance"]) == {"hub", "pressure", "leading_edge",
+                                        "splitter_pressure", "splitter_leading_edge"}
+    assert set(found["lathe"]) == {"splitter_pressure_beyond_shroud"}
+    assert {k: t["samples"] for k, t in found["acceptance"].items()} == {
+        "hub": 1, "pressure": 1, "leading_edge": 1, "splitter_pressure": 1,
+        "splitter_leading_edge": 1}
+    assert found["acceptance"]["splitter_leading_edge"]["max_mm"] == pytest.approx(0.6)
+    assert found["failed"] == ["splitter_leading_edge"] and not found["accepted"]
+
+
+@pytest.mark.parametrize("fixture", ["splitter", "nine_blade"])
+def test_points_of_each_blade_are_owned_by_it(fixture: str) -> None:
+    """Points on every blade's sides, edges' neighbourhood and fillet root (the side
+    continued below the hub by the fillet radius) are placed on their own blade."""
+    from pathlib import Path
+
+    from cam.run.blade_owner import splitter_points
+    from geometry.spec import load_spec
+    from geometry.surfaces import build_surfaces
+
+    spec = load_spec(Path(__file__).resolve().parents[3] / "fixtures" / "impellers"
+                     / fixture / "spec.toml")
+    surfaces = build_surfaces(spec)
+    rng = np.random.default_rng(28)
+    u, v = rng.uniform(0.0, 1.0, 400), rng.uniform(0.0, 1.12, 400)
+    side = np.where(rng.uniform(size=400) < 0.5, 1, -1)
+    for blades, expected in ((surfaces.blades, False), (surfaces.splitters, True)):
+        for blade in blades:
+            on = np.where(side[:, None] > 0, blade.side(u, v, 1), blade.side(u, v, -1))
+            # 2 mm further out along the camber normal: the fillet's width and more
+            out = on + 2.0 * side[:, None] * blade.normal(u, v)
+            for points in (on, out):
+                assert np.all(splitter_points(surfaces, points) == expected)
+    assert bool(surfaces.splitters) == (fixture == "splitter")
