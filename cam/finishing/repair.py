@@ -13,7 +13,10 @@ step 8) the postures that still break a rule are repaired one by one:
 2. **Cone search**: for each posture breaking a rule, candidate axes
    ``cos(theta) a + sin(theta) (cos(psi) e1 + sin(psi) e2)`` on rings
    ``theta = k * tilt_search_step_deg`` up to ``tilt_search_deg`` and
-   ``tilt_directions`` directions psi (e1 away from the wall); candidates that break
+   ``tilt_directions`` directions psi (e1 away from the wall); rings beyond
+   ``PREFERRED_TILT_DEG`` (10 deg) only for postures no direction repairs within it
+   (a tall obstacle beside an axis almost parallel to C: the splitter's outlet ends
+   needed 25-30 deg); candidates that break
    a geometric rule (normal angle, lead/tilt) are dropped; per posture and direction
    the smallest theta whose posture is collision-free with ``clearance_mm +
    repair_margin_mm`` is kept. The ball centre stays where it is (tip = centre - R
@@ -53,6 +56,7 @@ if TYPE_CHECKING:
     from cam.collision import CollisionScene
 
 __all__ = [
+    "PREFERRED_TILT_DEG",
     "PostureRules",
     "RepairResult",
     "absorb_monotone",
@@ -65,6 +69,10 @@ Array = NDArray[np.float64]
 Mask = NDArray[np.bool_]
 #: Geometric rules are met with this slack, rad (the cone candidates already meet them).
 _RULE_SLACK = 1e-9
+#: Cone angle up to which every tilt direction is searched, deg. Beyond it (up to
+#: ``tilt_search_deg``) the rings go on only for postures with no clear direction yet:
+#: a posture repairable within it gets the same candidates whatever the wider limit.
+PREFERRED_TILT_DEG = 10.0
 
 
 def _unit(a: Array) -> Array:
@@ -200,7 +208,8 @@ def _search(scene: CollisionScene, tool: Tool, kins: Kinematics, axis: Array, jo
 
     For every posture and tilt direction psi the smallest ring theta whose posture
     meets every rule is found (rings searched outwards, only for the pairs still
-    open). Along each cluster of neighbouring offenders the directions are chosen
+    open; beyond ``PREFERRED_TILT_DEG`` only for postures with no usable direction
+    yet). Along each cluster of neighbouring offenders the directions are chosen
     together (``_chain``): least total change ``|dA| + |dC| + theta`` (near the C
     axis a tiny tilt can need a large C turn: the machine's change counts), with a
     penalty for consecutive targets against the direction of A or C (the monotone
@@ -227,9 +236,12 @@ def _search(scene: CollisionScene, tool: Tool, kins: Kinematics, axis: Array, jo
     current = joints[index][:, 3:5]
     for ring in range(1, rings + 1):
         open_pairs = ~np.isfinite(theta_min)
+        theta = ring * step
+        if theta > math.radians(PREFERRED_TILT_DEG) + 1e-12:
+            # beyond the preferred cone only postures with no clear direction yet
+            open_pairs &= ~np.isfinite(cost).any(axis=1, keepdims=True)
         if not open_pairs.any():
             break
-        theta = ring * step
         cand = cone_axes(axis[index], rules.away[index], theta, k)
         who, psi = np.nonzero(open_pairs)
         axes = cand[who, psi]
