@@ -41,7 +41,7 @@ if TYPE_CHECKING:
     from cam.tools import Tool
     from postproc.machine_model import MachineModel, Solid
 
-__all__ = ["MACHINE_ROLE", "MachineObstacle", "operation_clearance"]
+__all__ = ["MACHINE_ROLE", "MachineObstacle", "continuous_branches", "operation_clearance"]
 
 #: Scene role of a machine collision in posture reports.
 MACHINE_ROLE = "machine"
@@ -116,7 +116,8 @@ class MachineObstacle(CollisionScene):
 
     def motion_margin(self, tool: Tool, tip: ArrayLike, axis: ArrayLike) -> Array:
         """Smallest margin per motion segment ``i -> i + 1`` (joint-linear samples, both
-        inverse branches inside the tilt limits), mm ``(n - 1,)``."""
+        inverse branches inside the tilt limits, each followed continuously:
+        ``continuous_branches``), mm ``(n - 1,)``."""
         tip = np.asarray(tip, np.float64).reshape(-1, 3)
         axis = np.asarray(axis, np.float64).reshape(-1, 3)
         query = self.query(tool)
@@ -125,7 +126,7 @@ class MachineObstacle(CollisionScene):
         if n < 2 or not query.pairs:
             return out
         lower, upper = self.kins.machine.limits()
-        for branch in self.kins.inverse_branches(tip, axis):
+        for branch in continuous_branches(self.kins.inverse_branches(tip, axis)):
             joints = branch.copy()
             joints[:, 4] = np.unwrap(joints[:, 4])
             inside = (joints[:, 3] >= lower[3] - 1e-9) & (joints[:, 3] <= upper[3] + 1e-9)
@@ -180,6 +181,39 @@ class MachineObstacle(CollisionScene):
             clearance=clearance, clearance_cap=clearance_cap,
             clearance_limits=clearance_limits, ends=ends)
         return self._combine(report, self.motion_margin(tool, tip, axis) < self.margin)
+
+
+def continuous_branches(branches: Array) -> Array:
+    """The two inverse solutions of a posture sequence, each followed continuously.
+
+    ``inverse_branches`` lists the tilt >= 0 solution first at every posture; where a
+    path's axis passes by the C axis the joints the post computes change the sign of
+    the tilt (A through 0, C almost unchanged), so the tilt-sign branches would jump C
+    by about 180 deg there: a move no program makes. Here each sequence takes, at
+    every posture, the solution nearer (``|dA| + |dC|``, C modulo a turn) to its own
+    at the posture before; the two sequences are mirror images, so the choice made
+    for the first decides the second.
+
+    Parameters
+    ----------
+    branches : (2, n, 5) float64
+        Both solutions per posture (X Y Z mm, A C rad).
+
+    Returns
+    -------
+    (2, n, 5) float64
+        The same solutions, swapped per posture so that each row is continuous.
+    """
+    first, second = branches[0], branches[1]
+
+    def change(a: Array, b: Array) -> Array:
+        turn = np.abs(np.angle(np.exp(1j * (b[:, 4] - a[:, 4]))))
+        return np.asarray(np.abs(b[:, 3] - a[:, 3]) + turn)
+
+    swap = change(first[:-1], second[1:]) < change(first[:-1], first[1:])
+    odd = np.concatenate([[False], np.cumsum(swap) % 2 == 1])
+    return np.stack([np.where(odd[:, None], second, first),
+                     np.where(odd[:, None], first, second)])
 
 
 def operation_clearance(obstacle: MachineObstacle, tool: Tool, tip: Array, axis: Array

@@ -15,7 +15,8 @@ obstacle's margin:
 * the starting postures of every path of every passage, in one batched query;
 * for those that do not clear: candidates turned about C by ``0, Cmax / 2, Cmax``
   (the remedy's range) and tilted on cones of ``tilt_search_deg / 2`` and
-  ``tilt_search_deg`` in ``tilt_directions`` directions (the repair's), the ball
+  ``tilt_search_deg`` (and half and all of the repair's preferred 10 deg, when
+  smaller) in ``tilt_directions`` directions (the repair's), the ball
   centre kept; a posture is unreachable when none of them clears.
 
 The candidates ignore the part and the posture rules (a superset of what planning
@@ -43,7 +44,7 @@ from numpy.typing import NDArray
 from cam.finishing.options import FinishOptions
 from cam.finishing.plan import _inverse, remove_reversals
 from cam.finishing.posture import c_max, enforce_normal_angle, initial_axes, rotate_about_z
-from cam.finishing.repair import cone_axes
+from cam.finishing.repair import PREFERRED_TILT_DEG, cone_axes
 from cam.verify.machine_query import MachineClearance
 from cam.verify.machine_scene import MachineScene, machine_scene
 from impeller_cam.errors import InputError
@@ -59,7 +60,8 @@ __all__ = ["Reach", "check_machine_reach", "reach_of", "remedies"]
 Array = NDArray[np.float64]
 #: Turns about C tried, as fractions of the path's Cmax (the eq. 7 remedy's range).
 C_TURNS = (0.0, 0.5, 1.0)
-#: Cone half-angles tried, as fractions of ``tilt_search_deg`` (the repair's cone).
+#: Cone half-angles tried, as fractions of ``tilt_search_deg`` (the repair's cone) and of
+#: the repair's preferred cone (``repair.PREFERRED_TILT_DEG``, when smaller).
 CONE_RINGS = (0.5, 1.0)
 #: Unreachable postures a remedy is searched on at most (spread over all of them).
 REMEDY_POINTS = 150
@@ -131,12 +133,14 @@ def starting_axes(path: CutterPath, tool: Tool, kins: Any, options: FinishOption
 def candidates(axis: Array, away: Array, turn: Array, options: FinishOptions) -> Array:
     """Candidate axes per posture ``(m, k, 3)``: C turns times cone rings (module doc)."""
     out = []
-    theta = math.radians(options.tilt_search_deg)
+    widest = options.tilt_search_deg
+    cones = sorted({ring * limit for ring in CONE_RINGS
+                    for limit in (widest, min(widest, PREFERRED_TILT_DEG))})
     for fraction in C_TURNS:
         turned = axis if fraction == 0.0 else rotate_about_z(axis, fraction * turn)
         out.append(turned[:, None, :])
-        for ring in CONE_RINGS:
-            out.append(cone_axes(turned, away, ring * theta, options.tilt_directions))
+        for cone in cones:
+            out.append(cone_axes(turned, away, math.radians(cone), options.tilt_directions))
     return np.concatenate(out, axis=1)
 
 

@@ -88,7 +88,8 @@ class FinishOptions:
         Step dC of the interference remedy (eq. 7 procedure), deg.
     tilt_search_deg : float
         Largest tilt of the cone search that repairs postures the eq. 7 remedy
-        cannot (cam/finishing/repair.py), deg.
+        cannot (cam/finishing/repair.py), deg; beyond ``repair.PREFERRED_TILT_DEG``
+        (10) only for postures no smaller tilt repairs.
     tilt_search_step_deg : float
         Step of the cone angle in that search, deg.
     tilt_directions : int
@@ -179,7 +180,7 @@ class FinishOptions:
     reversal_deadband_deg: float = 1e-5
     linear_deadband_mm: float = 1e-5
     delta_c_deg: float = 1.0
-    tilt_search_deg: float = 10.0
+    tilt_search_deg: float = 30.0
     tilt_search_step_deg: float = 1.0
     tilt_directions: int = 16
     repair_margin_mm: float = 0.05

@@ -13,7 +13,10 @@ step 8) the postures that still break a rule are repaired one by one:
 2. **Cone search**: for each posture breaking a rule, candidate axes
    ``cos(theta) a + sin(theta) (cos(psi) e1 + sin(psi) e2)`` on rings
    ``theta = k * tilt_search_step_deg`` up to ``tilt_search_deg`` and
-   ``tilt_directions`` directions psi (e1 away from the wall); candidates that break
+   ``tilt_directions`` directions psi (e1 away from the wall); rings beyond
+   ``PREFERRED_TILT_DEG`` (10 deg) only for postures no direction repairs within it
+   (a tall obstacle beside an axis almost parallel to C: the splitter's outlet ends
+   needed 25-30 deg); candidates that break
    a geometric rule (normal angle, lead/tilt) are dropped; per posture and direction
    the smallest theta whose posture is collision-free with ``clearance_mm +
    repair_margin_mm`` is kept. The ball centre stays where it is (tip = centre - R
@@ -31,18 +34,22 @@ step 8) the postures that still break a rule are repaired one by one:
    ramps) go through 2-3 in the next round, up to ``repair_rounds``; the best round
    (fewest reverse movements, then interferences, then rule breaks) is kept.
    Postures still breaking a rule are reported by index (``unresolved``).
+5. The rounds run with the cone up to ``PREFERRED_TILT_DEG`` first; where postures
+   stay unresolved they run again with the whole ``tilt_search_deg`` cone and the
+   better result is kept (``repair_postures``).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from cam.finishing.interference import InterferenceResult, check_path
+from cam.finishing.monotone_blend import absorb_monotone
 from cam.finishing.options import FinishOptions
 from cam.finishing.posture import angle_between, lead_tilt
 from cam.finishing.reversals import count_reversals, direction, smooth_monotone
@@ -53,6 +60,7 @@ if TYPE_CHECKING:
     from cam.collision import CollisionScene
 
 __all__ = [
+    "PREFERRED_TILT_DEG",
     "PostureRules",
     "RepairResult",
     "absorb_monotone",
@@ -65,6 +73,10 @@ Array = NDArray[np.float64]
 Mask = NDArray[np.bool_]
 #: Geometric rules are met with this slack, rad (the cone candidates already meet them).
 _RULE_SLACK = 1e-9
+#: Cone angle up to which every tilt direction is searched, deg. Beyond it (up to
+#: ``tilt_search_deg``) the rings go on only for postures with no clear direction yet:
+#: a posture repairable within it gets the same candidates whatever the wider limit.
+PREFERRED_TILT_DEG = 10.0
 
 
 def _unit(a: Array) -> Array:
@@ -200,7 +212,8 @@ def _search(scene: CollisionScene, tool: Tool, kins: Kinematics, axis: Array, jo
 
     For every posture and tilt direction psi the smallest ring theta whose posture
     meets every rule is found (rings searched outwards, only for the pairs still
-    open). Along each cluster of neighbouring offenders the directions are chosen
+    open; beyond ``PREFERRED_TILT_DEG`` only for postures with no usable direction
+    yet). Along each cluster of neighbouring offenders the directions are chosen
     together (``_chain``): least total change ``|dA| + |dC| + theta`` (near the C
     axis a tiny tilt can need a large C turn: the machine's change counts), with a
     penalty for consecutive targets against the direction of A or C (the monotone
@@ -227,9 +240,12 @@ def _search(scene: CollisionScene, tool: Tool, kins: Kinematics, axis: Array, jo
     current = joints[index][:, 3:5]
     for ring in range(1, rings + 1):
         open_pairs = ~np.isfinite(theta_min)
+        theta = ring * step
+        if theta > math.radians(PREFERRED_TILT_DEG) + 1e-12:
+            # beyond the preferred cone only postures with no clear direction yet
+            open_pairs &= ~np.isfinite(cost).any(axis=1, keepdims=True)
         if not open_pairs.any():
             break
-        theta = ring * step
         cand = cone_axes(axis[index], rules.away[index], theta, k)
         who, psi = np.nonzero(open_pairs)
         axes = cand[who, psi]
@@ -271,85 +287,6 @@ def _search(scene: CollisionScene, tool: Tool, kins: Kinematics, axis: Array, jo
 def _arc(centre: Array) -> Array:
     return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(centre, axis=0), axis=1))])
 
-
-def absorb_monotone(values: Array, index: NDArray[np.intp], targets: Array, arc: Array,
-                    blend: float, deadband: float = 0.0) -> Array:
-    """Move ``values[index]`` to ``targets`` keeping the curve monotone.
-
-    Parameters
-    ----------
-    values : (n,) float64
-        Axis positions along the path, monotone (beyond ``deadband``) in their
-        overall direction s.
-    index : (m,) intp
-        Increasing indices of the anchors.
-    targets : (m,) float64
-        Wanted positions there. Anchors that go against s relative to the previous
-        anchor are raised to it (``s * cummax``): the curve must stay monotone; such
-        anchors miss their target and are repaired again in the next round.
-    arc : (n,) float64
-        Arc length along the path, mm (the ramps are at least ``blend`` long).
-    blend : float
-        Least length of the ramps before the first and after the last anchor, mm.
-
-    Returns
-    -------
-    (n,) float64
-        Between consecutive anchors (and ramp ends) ``p < q`` the new curve is
-        ``T_p + w (T_q - T_p)`` with ``w = (V_i - V_p) / (V_q - V_p)`` (linear in arc
-        length where ``V_q == V_p``): monotone because ``w`` is and ``T_q - T_p`` has
-        the sign s. Outside the ramps the curve is unchanged; a ramp that would need
-        to start before the path start (end) shifts the whole start (end) instead.
-    """
-    values = np.asarray(values, dtype=np.float64)
-    n = len(values)
-    s = direction(values)
-    sv = s * values
-    t = s * np.maximum.accumulate(s * np.asarray(targets, dtype=np.float64))
-    st = s * t
-    anchors: list[tuple[int, float]] = []
-    # ramp in: back at least `blend`, and until the old curve is behind T_0
-    first = int(index[0])
-    j = first
-    while j > 0 and (arc[first] - arc[j] < blend or sv[j] > st[0] - deadband):
-        j -= 1
-    if j < first:
-        if sv[j] > st[0] - deadband:  # reached the path start: shift the start whole
-            anchors.append((0, float(values[0] + t[0] - values[first])))
-        else:
-            anchors.append((j, float(values[j])))
-    for k, (i, target) in enumerate(zip(index, t, strict=True)):
-        if k:  # back to the old curve between anchors far apart, where it is monotone
-            p = int(index[k - 1])
-            a = p
-            while a < i and (arc[a] - arc[p] < blend or sv[a] < st[k - 1] + deadband):
-                a += 1
-            b = int(i)
-            while b > a and (arc[i] - arc[b] < blend or sv[b] > st[k] - deadband):
-                b -= 1
-            if p < a < b < i:
-                anchors += [(a, float(values[a])), (b, float(values[b]))]
-        anchors.append((int(i), float(target)))
-    last = int(index[-1])
-    j = last
-    while j < n - 1 and (arc[j] - arc[last] < blend or sv[j] < st[-1] + deadband):
-        j += 1
-    if j > last:
-        if sv[j] < st[-1] + deadband:  # reached the path end: shift the end whole
-            anchors.append((n - 1, float(values[-1] + t[-1] - values[last])))
-        else:
-            anchors.append((j, float(values[j])))
-    out = values.copy()
-    out[anchors[0][0]] = anchors[0][1]
-    for (p, tp), (q, tq) in zip(anchors[:-1], anchors[1:], strict=True):
-        seg = np.arange(p, q + 1)
-        span = values[q] - values[p]
-        if s * span > 0:
-            w = (values[seg] - values[p]) / span
-        else:
-            w = (arc[seg] - arc[p]) / max(arc[q] - arc[p], 1e-300)
-        out[seg] = tp + w * (tq - tp)
-    return out
 
 
 @dataclass
@@ -443,6 +380,13 @@ def repair_postures(scene: CollisionScene, tool: Tool, kins: Kinematics, rules: 
                     ) -> RepairResult:
     """Repair the postures that break a rule (module docstring), rounds until none.
 
+    The rounds run first with the cone up to ``PREFERRED_TILT_DEG``; only when
+    postures stay unresolved and ``tilt_search_deg`` is wider do they run again from
+    the same start with the wider cone, and the better of the two results is kept
+    (fewest reverse movements, then interferences, then rule breaks; the first on a
+    tie). So a path the narrow cone repairs gets exactly what it got before the wider
+    search existed, and no path ends worse than with the narrow cone alone.
+
     Parameters
     ----------
     inter : InterferenceResult
@@ -450,6 +394,22 @@ def repair_postures(scene: CollisionScene, tool: Tool, kins: Kinematics, rules: 
     joints : (n, 5) float64
         Their joints (X Y Z mm, A C rad), reverse-movement free.
     """
+    narrow = replace(options, tilt_search_deg=min(options.tilt_search_deg,
+                                                  PREFERRED_TILT_DEG))
+    first = _repair_rounds(scene, tool, kins, rules, inter, joints, narrow)
+    if not first.unresolved.size or options.tilt_search_deg <= PREFERRED_TILT_DEG:
+        return first
+    wide = _repair_rounds(scene, tool, kins, rules, inter, joints, options)
+    if _badness(wide.interference, wide.joints, rules, options) < \
+            _badness(first.interference, first.joints, rules, options):
+        return wide
+    return first
+
+
+def _repair_rounds(scene: CollisionScene, tool: Tool, kins: Kinematics, rules: PostureRules,
+                   inter: InterferenceResult, joints: Array, options: FinishOptions
+                   ) -> RepairResult:
+    """Search-and-absorb rounds with the options' cone (``repair_postures``)."""
     radius = tool.radius
     arc = _arc(rules.centre)
     deadband = math.radians(options.reversal_deadband_deg)

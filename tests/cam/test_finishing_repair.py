@@ -152,3 +152,51 @@ def test_rule_violations_normal_angle_and_lead() -> None:
     assert rule_violations(axis, rules, options).tolist() == [True, False, True]
     blade = PostureRules(np.zeros((3, 3)), normal, tangent, tangent, hub_contact=False)
     assert rule_violations(axis, blade, options).tolist() == [True, False, False]
+
+
+def test_a_tall_wall_needs_more_than_ten_degrees_of_tilt() -> None:
+    """The splitter's outlet pattern (issue 28): an axis almost parallel to C beside a
+    wall as tall as the tool, so turning C cannot help and the holder needs a tilt
+    beyond 10 deg.
+
+    Ball centres 2.6 mm from a plate 110 mm high: the holder's 50 mm collar (radius 25
+    from 85 mm above the tip) keeps ``clearance_mm`` only if ``85 sin(theta) >= 25 -
+    2.6 + 0.55``, theta >= 16 deg. The cone search up to 10 deg leaves every posture
+    unresolved; the default search (up to ``tilt_search_deg``) repairs them all,
+    the ball centres kept and A and C free of reverse movements.
+    """
+    tall = trimesh.creation.box(extents=[1.0, 100.0, 110.0])
+    tall.apply_translation([-0.5, 0.0, 55.0])
+    scene = CollisionScene({"wall": tall}, grid_spacing=2.0)
+    kins = kinematics_for(load_machine(MACHINE))
+    n = 21
+    centre = np.column_stack([np.full(n, 2.6), np.linspace(-10.0, 10.0, n), np.full(n, 5.0)])
+    lean = math.radians(2.0)
+    axis = np.tile([0.0, math.sin(lean), math.cos(lean)], (n, 1))
+    rules = PostureRules(centre, np.tile([1.0, 0.0, 0.0], (n, 1)),
+                         np.tile([0.0, 1.0, 0.0], (n, 1)), np.tile([1.0, 0.0, 0.0], (n, 1)),
+                         hub_contact=False)
+
+    def repaired(options: FinishOptions) -> tuple[object, object]:
+        first = resolve_interference(scene, TOOL, centre, axis, +1.0,
+                                     np.full(n, math.radians(30.0)), options)
+        assert first.smaller_tool_needed  # dC up to Cmax does not help
+        joints = kins.inverse(first.tip, first.axis)
+        return first, repair_postures(scene, TOOL, kins, rules, first, joints, options)
+
+    _, capped = repaired(FinishOptions(tilt_search_deg=10.0))
+    assert capped.unresolved.size == n  # nothing within 10 deg
+    options = FinishOptions()
+    assert options.tilt_search_deg >= 20.0
+    _, result = repaired(options)
+    assert result.unresolved.size == 0
+    final = result.interference
+    assert not final.smaller_tool_needed
+    assert final.clearance.min() >= options.clearance_mm
+    assert math.radians(16.0) <= result.max_tilt <= math.radians(options.tilt_search_deg) + 1e-12
+    assert final.tip + TOOL.radius * final.axis == pytest.approx(centre, abs=1e-9)
+    again = kins.inverse(final.tip, final.axis)
+    deadband = math.radians(options.reversal_deadband_deg)
+    assert count_reversals(again[:, 3], deadband) == 0
+    assert count_reversals(again[:, 4], deadband) == 0
+    assert not check_path(scene, TOOL, final.tip, final.axis, options).smaller_tool_needed
