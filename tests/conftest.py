@@ -1,11 +1,21 @@
 """Test-suite wide notes: how the tests share the two workers, and the tiers.
 
-``scripts/test`` runs ``pytest -n 2 --dist loadscope``: the tests of one module run on
-one worker, so a module-scoped fixture (nine_blade's roughing run) is built once. The
-small fixture's whole chain (``chain_small``, tests/cam/conftest.py), used by several
-modules, is built once for both workers, in the base folder they share, under a lock.
-(pytest-xdist's ``xdist_group`` marks did not group anything with pytest 9: the
-worker's node ids no longer take its group suffix.)
+``scripts/test`` runs ``pytest -n 2 --dist loadscope --no-loadscope-reorder``: the
+tests of one module run on one worker, so a module-scoped fixture (nine_blade's
+roughing run) is built once. The small fixture's whole chain (``chain_small``,
+tests/cam/conftest.py), used by several modules, is built once for both workers, in
+the base folder they share, under a lock. (pytest-xdist's ``xdist_group`` marks did
+not group anything with pytest 9: the worker's node ids no longer take its group
+suffix.)
+
+The workers take the modules in the order ``pytest_collection_modifyitems`` leaves
+them (``--no-loadscope-reorder``; xdist's own order, most tests first, put the long
+modules of one or two tests last, where one worker ran them alone): the first module
+that uses ``chain_small`` (it builds the chain while the other worker runs other
+modules), then the modules with a ``slow`` test (the long ones), then the others; in
+both groups the other ``chain_small`` users come last (the chain is built by then, so
+no worker waits for it); collection order otherwise. Many short modules at the end
+keep both workers busy to the end.
 
 Tiers: ``-m "not slow"`` is the fast tier (unit, property and the small fixture's
 chain); ``slow`` marks the acceptance runs on the nine_blade and splitter fixtures,
@@ -24,10 +34,37 @@ def pytest_addoption(parser: pytest.Parser) -> None:
                      help="also run the whole-chain acceptance runs (marker 'acceptance')")
 
 
+@pytest.hookimpl(trylast=True)  # after ``-m``/``-k`` deselected their items
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    if config.getoption("--acceptance"):
-        return
-    skip = pytest.mark.skip(reason="whole-chain acceptance run: pytest --acceptance")
+    if not config.getoption("--acceptance"):
+        skip = pytest.mark.skip(reason="whole-chain acceptance run: pytest --acceptance")
+        for item in items:
+            if "acceptance" in item.keywords:
+                item.add_marker(skip)
+    items[:] = in_module_order(items)
+
+
+def in_module_order(items: list[pytest.Item]) -> list[pytest.Item]:
+    """The items grouped by module, the modules in the order the workers should take
+    them (module docstring): the first ``chain_small`` user, the modules with a ``slow``
+    test, the others, in both groups the other ``chain_small`` users last; collection
+    order within each group and within each module."""
+    modules: dict[str, list[pytest.Item]] = {}
     for item in items:
-        if "acceptance" in item.keywords:
-            item.add_marker(skip)
+        modules.setdefault(item.nodeid.split("::", 1)[0], []).append(item)
+
+    def uses_chain(module: list[pytest.Item]) -> bool:
+        return any("chain_small" in getattr(item, "fixturenames", ()) for item in module)
+
+    builder = next((name for name, module in modules.items() if uses_chain(module)), None)
+
+    def group(name: str) -> tuple[int, bool]:
+        module = modules[name]
+        if name == builder:
+            return 0, False
+        slow = any(item.get_closest_marker("slow") is not None
+                   and item.get_closest_marker("skip") is None for item in module)
+        return (1 if slow else 2), uses_chain(module)
+
+    order = sorted(modules, key=group)  # stable: collection order within a group
+    return [item for name in order for item in modules[name]]

@@ -7,7 +7,10 @@ dependencies is the project venv's site-packages (a ``.pth`` line: the editable
 install of the repository is not activated). Everything then runs in a folder outside
 the repository without ``PYTHONPATH``: the bundled example impeller, the bundled
 machine, the bundled tool library and indexing plant. The chain on the small example
-with coarse settings takes a few minutes: marked ``slow``.
+runs every stage with the chain test's coarse settings on one passage (roughed and
+finished): what is under test is that the installed package finds its data and runs
+each stage to the report, not the passages (the whole chain on every passage is
+``tests/cam/run/test_chain.py``). Still a minute or two: marked ``slow``.
 """
 
 from __future__ import annotations
@@ -24,7 +27,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("impeller_cam", "geometry", "cam", "postproc")
-#: The chain test's coarse settings (tests/cam/conftest.py), written into the example.
+#: The chain test's coarse settings (tests/cam/conftest.py), one passage roughed and
+#: finished, written into the example.
 COARSE = """[machining]
 rough_tool = "ball6"
 finish_tool = "ball4_taper"
@@ -34,10 +38,12 @@ tessellation_mm = 0.05
 [machining.rough]
 scallop_mm = 1.0
 step_along_mm = 2.0
+passages = 1
 
 [machining.finish]
 scallop_mm = 0.8
 point_spacing_mm = 1.5
+passages = 1
 """
 
 
@@ -115,5 +121,9 @@ def test_run_on_the_small_example_outside_the_repository(installed: Path,
     stages = {entry["name"]: entry["status"] for entry in record["stages"]}
     assert stages and set(stages.values()) == {"done"}, stages
     assert (tmp_path / "out" / "report.html").is_file()
+    assert record["settings"]["finish"]["passages"] == 1  # the example's [machining] read
+    post = json.loads((tmp_path / "out" / "nc" / "post.json").read_text())
+    assert {p["operation"] for p in post["programs"]} == {"rough", "finish"}
+    assert all((tmp_path / "out" / p["nc"]).is_file() for p in post["programs"])
     motion = json.loads((tmp_path / "out" / "motion" / "motion.json").read_text())
     assert motion["indexing"].get("optimisation") is not None  # the bundled plant was read

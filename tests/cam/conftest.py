@@ -59,6 +59,12 @@ CHAIN_SETTINGS: dict[str, Any] = {
     "verify_resolution_mm": 0.3,
     "tessellation_mm": 0.05,
 }
+#: The same, one passage roughed and finished.
+ONE_PASSAGE_SETTINGS: dict[str, Any] = {
+    **CHAIN_SETTINGS,
+    "rough": {**CHAIN_SETTINGS["rough"], "passages": 1},
+    "finish": {**CHAIN_SETTINGS["finish"], "passages": 1},
+}
 
 
 @pytest.fixture(scope="session")

@@ -151,8 +151,9 @@ def _finishing_postures(name: str, tool: str, options: dict[str, float]
 @pytest.mark.parametrize("name, tool, options", [
     ("nine_blade", "ball6_taper", dict(scallop_mm=2.5, point_spacing_mm=2.0,
                                        clearance_mm=2.5, clearance_exact_mm=3.0)),
-    ("splitter", "ball4_taper", dict(scallop_mm=1.5, point_spacing_mm=2.0,
-                                     clearance_mm=2.5, clearance_exact_mm=3.0)),
+    pytest.param("splitter", "ball4_taper", dict(scallop_mm=1.5, point_spacing_mm=2.0,
+                                                 clearance_mm=2.5, clearance_exact_mm=3.0),
+                 marks=pytest.mark.slow),  # about 19 s of a core
 ])
 def test_finishing_postures_answer_like_the_plain_fcl_loop(
         name: str, tool: str, options: dict[str, float]) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -40,30 +41,43 @@ def pose_and_move_centres(out: Path, doc: dict, radius: float, sector: tuple[flo
     return c[(ang > sector[0]) & (ang < sector[1])]
 
 
-def design_stl_distance(spec: Path, centres: np.ndarray, tmp: Path, count: int = 1500
-                        ) -> tuple[np.ndarray, float]:
-    """Distances of centres to the STL of the real solid (fillets, rounded edges),
-    exported finer than the roughing's design mesh and read back with trimesh.
+@cache
+def design_check_mesh(spec: Path) -> tuple[Any, Any, float]:
+    """The STL of the real solid (fillets, rounded edges; 0.01 mm, finer than the
+    roughing's design mesh) read back with trimesh, a tree of 200,000 seeded samples of
+    its surface, and the finishing allowance (mm): built once per spec, for every check
+    of that spec."""
+    import tempfile
 
-    The checked centres: the ``count // 2`` closest to the design by a coarse
-    sample-point bound, plus ``count // 2`` seeded random ones.
-    """
     import trimesh
     from scipy.spatial import cKDTree
 
     from geometry.impeller import Impeller
 
     impeller = Impeller.from_spec(spec)
-    stl = impeller.export_stl(tmp / "design.stl", tolerance=0.01)
-    design = trimesh.load(stl)
+    with tempfile.TemporaryDirectory() as tmp:
+        design = trimesh.load(impeller.export_stl(Path(tmp) / "design.stl", tolerance=0.01))
     samples, _ = trimesh.sample.sample_surface_even(design, 200_000, seed=5)
-    rough_d, _ = cKDTree(samples).query(centres)
+    return design, cKDTree(samples), impeller.spec.finishing_allowance
+
+
+def design_stl_distance(spec: Path, centres: np.ndarray, count: int = 1500
+                        ) -> tuple[np.ndarray, float]:
+    """Distances of centres to the STL of the real solid (``design_check_mesh``).
+
+    The checked centres: the ``count // 2`` closest to the design by a coarse
+    sample-point bound, plus ``count // 2`` seeded random ones.
+    """
+    import trimesh
+
+    design, samples, eta = design_check_mesh(spec)
+    rough_d, _ = samples.query(centres)
     near = np.argsort(rough_d)[: count // 2]
     rand = np.random.default_rng(3).choice(len(centres), size=min(count // 2, len(centres)),
                                            replace=False)
     pick = np.unique(np.concatenate([near, rand]))
     _, dist, _ = trimesh.proximity.closest_point(design, centres[pick])
-    return np.asarray(dist), impeller.spec.finishing_allowance
+    return np.asarray(dist), eta
 
 
 @pytest.fixture(scope="module")
@@ -151,20 +165,19 @@ def test_links_lift_briefly_then_rapid(rough: tuple[Path, dict]) -> None:
         assert retract["length_mm"] == pytest.approx(retract["moves"] * lift, rel=1e-6)
 
 
-def test_allowance_against_independent_stl(rough: tuple[Path, dict], tmp_path: Path) -> None:
+def test_allowance_against_independent_stl(rough: tuple[Path, dict]) -> None:
     """Ball surfaces stay eta from the design at every pose and along every cutting
     move: exact distances to an STL of a finer, separately built design mesh."""
     out, doc = rough
     centres = pose_and_move_centres(out, doc, 5.0, (-1.3, 0.3))
-    dist, eta = design_stl_distance(SPEC, centres, tmp_path)
+    dist, eta = design_stl_distance(SPEC, centres)
     # tolerance: 0.01 mm of the check STL's own tessellation, and the chord of the
     # straight cutting moves (refined every 0.25 mm) over the check points
     assert dist.min() - 5.0 >= eta - 0.02
     assert doc["min_allowance_mm"] >= eta - 1e-6
 
 
-def test_shank_keeps_clear_of_the_stock_left_on_the_walls(rough: tuple[Path, dict],
-                                                          tmp_path: Path) -> None:
+def test_shank_keeps_clear_of_the_stock_left_on_the_walls(rough: tuple[Path, dict]) -> None:
     """Issue 8 defect: verify found the shank (just above the 22 mm flutes) running up
     to 3.2 mm into the stock left on the blades near their tips in the deepest layers
     (it kept only eta from the design). Every cutting pose now keeps its shank
@@ -186,7 +199,7 @@ def test_shank_keeps_clear_of_the_stock_left_on_the_walls(rough: tuple[Path, dic
     shank = np.concatenate(points)
     angle = np.arctan2(shank[:, 1], shank[:, 0])
     shank = shank[(angle > -1.3) & (angle < 0.3)]
-    dist, eta = design_stl_distance(SPEC, shank, tmp_path, count=4000)
+    dist, eta = design_stl_distance(SPEC, shank, count=4000)
     need = eta + COARSE["scallop_mm"] + SHANK_MARGIN
     assert dist.min() - 0.5 * tool.shank_diameter >= need - 0.05 - 0.01
 

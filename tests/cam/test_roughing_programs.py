@@ -6,7 +6,11 @@ per UMR and layer): the one program
 holds the visits' APT operations in cut order, posts into a program with one
 ``T.. M6`` that rs274 accepts, and removes the same volume from the blank as the
 per-visit programs run in sequence, with a clean verification (no gouge,
-shank/holder collision, over-travel or rapid in stock).
+shank/holder collision, over-travel or rapid in stock). The machine is trunnion-500
+without its ``[model]`` tables: the layout of the programs is under test, not the
+machine model's fit (planned and verified on the chain, tests/cam/run/
+test_machine_chain.py), which would check every move of both layouts against the
+machine's solids once more.
 """
 
 from __future__ import annotations
@@ -20,10 +24,11 @@ from cam.roughing.command import run_rough
 from cam.roughing.options import RoughOptions
 from impeller_cam.errors import InputError
 from postproc.apt import read_apt, write_apt
+from tests.cam.conftest import TRUNNION, without_model
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEC = ROOT / "fixtures/impellers/nine_blade/spec.toml"
-MACHINE = ROOT / "fixtures/machines/trunnion-500.toml"
+MACHINE = without_model(TRUNNION)
 
 
 def test_program_layout_is_validated() -> None:

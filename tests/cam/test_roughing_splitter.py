@@ -82,10 +82,10 @@ def test_baseline_valid_and_rapids_in_air(rough: tuple[Path, dict]) -> None:
     assert doc["rapids_in_stock"] == {"3axis": 0, "5axis": 0}
 
 
-def test_allowance_against_independent_stl(rough: tuple[Path, dict], tmp_path: Path) -> None:
+def test_allowance_against_independent_stl(rough: tuple[Path, dict]) -> None:
     out, doc = rough
     centres = pose_and_move_centres(out, doc, 3.0, (-np.pi, np.pi))
-    dist, eta = design_stl_distance(SPEC, centres, tmp_path)
+    dist, eta = design_stl_distance(SPEC, centres)
     assert dist.min() - 3.0 >= eta - 0.02
 
 

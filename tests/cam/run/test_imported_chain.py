@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import tomllib
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
@@ -21,21 +20,18 @@ import pytest
 from cam.cli import main
 from cam.run import run_chain
 from cam.run.compare import FAULT_EVENTS, RunComparison, compare_runs
-from tests.cam.conftest import CHAIN_MACHINE, CHAIN_SETTINGS, SMALL_SPEC
+from tests.cam.conftest import CHAIN_MACHINE, ONE_PASSAGE_SETTINGS, SMALL_SPEC
 
 pytestmark = pytest.mark.slow
 
-#: The chain test's settings, one passage roughed and finished.
-SETTINGS: dict[str, Any] = {**CHAIN_SETTINGS,
-                            "rough": {**CHAIN_SETTINGS["rough"], "passages": 1},
-                            "finish": {**CHAIN_SETTINGS["finish"], "passages": 1}}
 #: The stages whose results are compared (motion and report read them only).
 STAGES = ("geometry", "rough", "finish", "post", "verify")
 
 
 def chain(spec: Path, out: Path) -> Path:
     for stage in STAGES:
-        run_chain(spec, CHAIN_MACHINE, out, only=stage, progress=False, **SETTINGS)
+        run_chain(spec, CHAIN_MACHINE, out, only=stage, progress=False,
+                  **ONE_PASSAGE_SETTINGS)
     return out
 
 

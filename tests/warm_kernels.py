@@ -1,0 +1,48 @@
+"""Compile the chain's numba kernels into the checkout before the test run.
+
+The kernels are ``numba.njit(cache=True)``: a process compiles a kernel at its first
+call unless ``__pycache__`` holds it already. On a fresh clone every pytest worker
+(and every worker process a test starts: the sweep's, the examples') would compile the
+kernels it reaches before another has written them, the two workers often the same
+kernels at the same time (measured: ``test_verify_engine`` and ``test_roughing_blank``
+take 39 s of a core on a cold cache, 6 s on a warm one). ``scripts/test`` runs this
+module while mypy runs (mypy uses one core), so the tests start with the chain's
+kernels compiled once: the small fixture's chain, one passage roughed and finished,
+with the chain test's coarse settings, through every stage that calls kernels
+(geometry, rough, finish, post, verify, motion), into a temporary folder.
+
+Usage: ``python -m tests.warm_kernels`` (prints the seconds it took).
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from tests.cam.conftest import CHAIN_MACHINE, ONE_PASSAGE_SETTINGS, SMALL_SPEC
+
+#: The stages whose code calls numba kernels (the report only reads their outputs).
+STAGES = ("geometry", "rough", "finish", "post", "verify", "motion")
+
+
+def warm(out: Path) -> None:
+    """Run the warm-up chain into ``out`` (a folder that need not exist)."""
+    from cam.run import run_chain
+
+    for stage in STAGES:
+        run_chain(SMALL_SPEC, CHAIN_MACHINE, out, only=stage, progress=False,
+                  **ONE_PASSAGE_SETTINGS)
+
+
+def main() -> int:
+    start = time.monotonic()
+    with tempfile.TemporaryDirectory(prefix="impeller-cam-warm-") as folder:
+        warm(Path(folder) / "small")
+    print(f"numba kernels warmed in {time.monotonic() - start:.0f} s", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
