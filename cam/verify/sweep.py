@@ -252,18 +252,24 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                                     ux, uy, uz, length, rho2)
                         n_c0 += nspan
                         r0 = ii * nj + j0
-                        # the rays whose capsule interval (clipped by the box but for a
-                        # sphere's exact one) meets their material outside the first
-                        # gap; an exact interval lies inside it, so no other ray can
-                        # change: only these get the exact form and the per-ray work
+                        # for the row forms, the rays whose capsule interval (clipped by
+                        # the box) meets their material outside the first gap; an exact
+                        # interval lies inside it, so no other ray can change: only these
+                        # get the exact form and the per-ray work (other primitives test
+                        # each ray of the span in the per-ray loop)
                         n_sel = 0
-                        for m in range(nspan):
-                            r = r0 + m * step
-                            ta = row_a[m] if exact else max(row_a[m], kmin)
-                            tb = row_b[m] if exact else min(row_b[m], kmax)
-                            row_sel[n_sel] = m
-                            n_sel += (tb > ta and ta < mat_hi[r] and tb > mat_lo[r]
-                                      and (ta < gap_lo[r] or tb > gap_hi[r]))
+                        if rowwise:
+                            for m in range(nspan):
+                                r = r0 + m * step
+                                ta = max(row_a[m], kmin)
+                                tb = min(row_b[m], kmax)
+                                row_sel[n_sel] = m
+                                n_sel += (tb > ta and ta < mat_hi[r] and tb > mat_lo[r]
+                                          and (ta < gap_lo[r] or tb > gap_hi[r]))
+                        else:
+                            for m in range(nspan):
+                                row_sel[m] = m
+                            n_sel = nspan
                         if n_sel == 0:
                             continue
                         if rowwise and normal:
@@ -288,8 +294,9 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                             mhi = mat_hi[r]
                             # no material there, or all of it in the ray's first gap (the
                             # test of the selection, again for an exact interval)
-                            if known and not (tb > ta and ta < mhi and tb > mlo
-                                              and (ta < gap_lo[r] or tb > gap_hi[r])):
+                            if (known or not rowwise) and not (tb > ta and ta < mhi and tb > mlo
+                                                             and (ta < gap_lo[r]
+                                                                  or tb > gap_hi[r])):
                                 continue
                             n_c1 += 1
                             if known:
