@@ -21,7 +21,11 @@ the same, only the wall time differs.
 without renders, 0.1 mm): CPU and wall seconds, sub-moves, removed volume and the
 events of each engine. The old engine needs about 340 s of CPU there.
 
-Run: ``python benchmarks/bench_verify.py [--thirdparty] [--old PATH]``.
+``--base PATH`` adds a second baseline (any checkout, e.g. the current main in a
+temporary worktree) beside the old engine, one thread; ``--no-old-demo`` leaves the old
+engine out of the demo.
+
+Run: ``python benchmarks/bench_verify.py [--thirdparty] [--old PATH] [--base PATH]``.
 """
 
 from __future__ import annotations
@@ -161,9 +165,9 @@ def run_demo(pitch: float) -> dict:
             "memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
 
-def _child(engine: str, old: Path, *args: str) -> dict:
+def _child(engine: str, checkout: Path, *args: str) -> dict:
     env = dict(os.environ)
-    env["PYTHONPATH"] = str(old if engine == "old" else ROOT)
+    env["PYTHONPATH"] = str(checkout)
     out = subprocess.run(
         [sys.executable, __file__, "--one", engine, *args],
         check=True, capture_output=True, text=True, cwd=ROOT, env=env,
@@ -178,7 +182,7 @@ def _row(name: str, res: dict, ref: float) -> str:
             f"{res['removed']:12.4f} {err:+9.5f} {res['memory_mb']:7.0f} {res.get('runs', 1):4d}")
 
 
-def main(old: Path, thirdparty: bool) -> None:
+def main(old: Path, thirdparty: bool, base: Path | None = None, old_demo: bool = True) -> None:
     sys.path.insert(0, str(ROOT))
     pts, axes3, exact3 = three_axis_moves()
     tips5, moves5, axes5 = five_axis_moves()
@@ -187,17 +191,21 @@ def main(old: Path, thirdparty: bool) -> None:
         "3axis_tips": pts[:-1], "3axis_moves": np.diff(pts, axis=0), "3axis_axes": axes3[:-1],
         "5axis_tips": tips5, "5axis_moves": moves5, "5axis_axes": axes5,
     })
-    print(f"old engine: {old} (7e9ac6f); new engine: {ROOT}")
+    print(f"old engine: {old} (7e9ac6f); new engine: {ROOT}"
+          + ("" if base is None else f"; base engine: {base}"))
     print(f"{'case':22s} {'moves':>6s} {'cpu s':>8s} {'wall s':>8s} {'moves/cpu s':>10s} "
           f"{'moves/wall s':>10s} {'removed mm3':>12s} {'vs old %':>9s} {'peak MB':>7s} runs")
     for case in ("3axis", "5axis"):
         for pitch in (0.1, 0.05):
             args = (case, str(pitch), str(moves_file))
             before = _child("old", old, *args, "0")
-            one = _child("new", old, *args, "1")
-            two = _child("new", old, *args, "2")
+            prior = None if base is None else _child("base", base, *args, "1")
+            one = _child("new", ROOT, *args, "1")
+            two = _child("new", ROOT, *args, "2")
             ref = before["removed"]
             print(_row(f"{case} {pitch} old", before, ref))
+            if prior is not None:
+                print(_row(f"{case} {pitch} base 1 thread", prior, ref))
             print(_row(f"{case} {pitch} new 1 thread", one, ref))
             print(_row(f"{case} {pitch} new 2 threads", two, ref))
             print(f"  -> {before['cpu'] / one['cpu']:.1f}x moves per CPU s (1 thread), "
@@ -205,6 +213,11 @@ def main(old: Path, thirdparty: bool) -> None:
                   f"{before['wall'] / two['wall']:.1f}x per wall s (2 threads); "
                   f"volume {'identical' if one['removed'] == two['removed'] else 'DIFFERS'}"
                   f" for 1 and 2 threads", flush=True)
+            if prior is not None:
+                agree = (prior["removed"] == one["removed"] and prior["cutting"] == one["cutting"]
+                         and prior["contact"] == one["contact"])
+                print(f"     against the base (1 thread): {prior['cpu'] / one['cpu']:.2f}x CPU; "
+                      f"removed volume and event moves {'identical' if agree else 'DIFFER'}")
             same = all(r["cutting"] == before["cutting"] and r["contact"] == before["contact"]
                        for r in (one, two))
             print(f"     moves cutting > 0.01 mm along a ray: {len(before['cutting'])} (old), "
@@ -221,18 +234,23 @@ def main(old: Path, thirdparty: bool) -> None:
     if thirdparty:
         print("\nLinuxCNC impeller-7bl-xyzac.ngc, 0.1 mm, run_verify without renders")
         results = {}
-        for engine in ("new", "old"):
-            res = _child(engine, old, "demo", "0.1", "-", "0")
+        engines = {"new": ROOT, **({} if base is None else {"base": base}),
+                   **({"old": old} if old_demo else {})}
+        for engine, checkout in engines.items():
+            res = _child(engine, checkout, "demo", "0.1", "-", "0")
             results[engine] = res
             print(f"  {engine}: {res['moves']} sub-moves, {res['cpu']:.1f} s CPU, "
                   f"{res['wall']:.1f} s wall, removed {res['removed']:.3f} mm3, "
                   f"peak {res['memory_mb']:.0f} MB, events {res['counts']}", flush=True)
-        same = [tuple(e[:2]) for e in results["new"]["events"]] == [
-            tuple(e[:2]) for e in results["old"]["events"]]
-        print(f"  events (type, line) {'the same' if same else 'DIFFER'}; "
-              f"old {results['old']['events']}; new {results['new']['events']}")
-        print(f"  -> {results['old']['cpu'] / results['new']['cpu']:.1f}x CPU, "
-              f"{results['old']['wall'] / results['new']['wall']:.1f}x wall")
+        for engine in results:
+            if engine == "new":
+                continue
+            same = [tuple(e[:2]) for e in results["new"]["events"]] == [
+                tuple(e[:2]) for e in results[engine]["events"]]
+            print(f"  events (type, line) {'the same' if same else 'DIFFER'}; "
+                  f"{engine} {results[engine]['events']}; new {results['new']['events']}")
+            print(f"  -> against {engine}: {results[engine]['cpu'] / results['new']['cpu']:.2f}x "
+                  f"CPU, {results[engine]['wall'] / results['new']['wall']:.2f}x wall")
 
 
 if __name__ == "__main__":
@@ -248,5 +266,9 @@ if __name__ == "__main__":
                             help="also LinuxCNC's impeller demo at 0.1 mm (old: ~340 s CPU)")
         parser.add_argument("--old", type=Path, default=Path("/work/wt/base"),
                             help="checkout of today's engine (commit 7e9ac6f)")
+        parser.add_argument("--base", type=Path, default=None,
+                            help="a second baseline checkout (e.g. main), 1 thread")
+        parser.add_argument("--no-old-demo", action="store_true",
+                            help="skip the old engine on the demo (~340 s of CPU)")
         ns = parser.parse_args()
-        main(ns.old, ns.thirdparty)
+        main(ns.old, ns.thirdparty, ns.base, not ns.no_old_demo)

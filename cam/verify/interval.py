@@ -341,18 +341,18 @@ def _row_ray_terms(  # type: ignore[no-untyped-def]
 
 @njit(cache=True, error_model="numpy")
 def normal_row(  # type: ignore[no-untyped-def]
-    out_a, out_b, out_ok, m0, m1, cj0, step, h, w0, tip1, w2, ag0, ag1, ag2, dg0, dg1, dg2,
+    out_a, out_b, out_ok, rays, n, cj0, step, h, w0, tip1, w2, ag0, ag1, ag2, dg0, dg1, dg2,
     zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi,
 ):
-    """``normal_interval`` for rays ``m0 <= m < m1`` of one grid row, arguments as
+    """``normal_interval`` for the rays ``rays[:n]`` of one grid row, arguments as
     ``endpoint_row``; branch-free so that the loop vectorises."""
-    for m in range(m0, m1):
-        zw, qd, qe, qf = _row_ray_terms(cj0 + m * step * h - tip1, w0, w2, ag0, ag1, ag2,
-                                        dg0, dg1, dg2, zu, zd, alpha, beta, gamma)
+    for q in range(n):
+        zw, qd, qe, qf = _row_ray_terms(cj0 + rays[q] * step * h - tip1, w0, w2, ag0, ag1,
+                                        ag2, dg0, dg1, dg2, zu, zd, alpha, beta, gamma)
         ok, ta, tb = _normal_sel(qa, qb, qc, qd, qe, qf, zw, zd, zlo, zhi, alpha)
-        out_a[m] = ta
-        out_b[m] = tb
-        out_ok[m] = ok
+        out_a[q] = ta
+        out_b[q] = tb
+        out_ok[q] = ok
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -387,18 +387,21 @@ def _static_sel(s, qa, inv_qa, qb, qc, qd, qe, qf, zw, inv_zu, zd, zlo, zhi):  #
 
 @njit(cache=True, error_model="numpy")
 def endpoint_row(  # type: ignore[no-untyped-def]
-    out_a, out_b, out_ok, m0, m1, cj0, step, h, w0, tip1, w2, ag0, ag1, ag2, dg0, dg1, dg2,
+    out_a, out_b, out_ok, rays, n, cj0, step, h, w0, tip1, w2, ag0, ag1, ag2, dg0, dg1, dg2,
     zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi,
 ):
-    """``endpoint_interval`` for rays ``m0 <= m < m1`` of one grid row; branch-free so
-    that the loop vectorises. Needs ``|zu| > 1e-14`` and ``qa > 0``.
+    """``endpoint_interval`` for the rays ``rays[:n]`` of one grid row (only those the
+    sweep's material test passed); branch-free so that the loop vectorises. Needs
+    ``|zu| > 1e-14`` and ``qa > 0``.
 
     Parameters
     ----------
-    out_a, out_b : (n,) float64
-        Interval ends along the rays (grid frame, mm), written at ``m0..m1-1``.
-    out_ok : (n,) bool
+    out_a, out_b : (>= n,) float64
+        Interval ends along the rays (grid frame, mm): ray ``rays[q]``'s at ``q``.
+    out_ok : (>= n,) bool
         False where the general path is needed (the values there are meaningless).
+    rays, n : (>= n,) int64, int
+        The rays' positions ``m`` in the row.
     cj0, step, h : float, int, float
         Ray ``m`` lies at ``cj0 + m step h`` along the row, mm.
     w0, tip1, w2 : float
@@ -411,16 +414,16 @@ def endpoint_row(  # type: ignore[no-untyped-def]
     """
     inv_qa = 1.0 / qa
     inv_zu = 1.0 / zu
-    for m in range(m0, m1):
-        zw, qd, qe, qf = _row_ray_terms(cj0 + m * step * h - tip1, w0, w2, ag0, ag1, ag2,
-                                        dg0, dg1, dg2, zu, zd, alpha, beta, gamma)
+    for q in range(n):
+        zw, qd, qe, qf = _row_ray_terms(cj0 + rays[q] * step * h - tip1, w0, w2, ag0, ag1,
+                                        ag2, dg0, dg1, dg2, zu, zd, alpha, beta, gamma)
         ok0, lo0, hi0, dlo0, dhi0 = _static_sel(0.0, qa, inv_qa, qb, qc, qd, qe, qf, zw,
                                                 inv_zu, zd, zlo, zhi)
         ok1, lo1, hi1, dlo1, dhi1 = _static_sel(1.0, qa, inv_qa, qb, qc, qd, qe, qf, zw,
                                                 inv_zu, zd, zlo, zhi)
-        out_a[m] = lo0 if dlo0 >= 0.0 else lo1
-        out_b[m] = hi0 if dhi0 <= 0.0 else hi1
-        out_ok[m] = (ok0 & ok1 & ((dlo0 >= 0.0) | (dlo1 <= 0.0))
+        out_a[q] = lo0 if dlo0 >= 0.0 else lo1
+        out_b[q] = hi0 if dhi0 <= 0.0 else hi1
+        out_ok[q] = (ok0 & ok1 & ((dlo0 >= 0.0) | (dlo1 <= 0.0))
                      & ((dhi0 <= 0.0) | (dhi1 >= 0.0)))
 
 

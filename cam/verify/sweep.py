@@ -21,8 +21,8 @@ hold material there, in three filters of rising cost:
    there, or lies on both sides of the cut channel the tool moves in);
 3. **exact interval**: for primitives other than a full ball, the end-pose closed
    form (``interval.endpoint_row``) or the normal-ray closed form
-   (``interval.normal_row``) of a whole row in one vectorised loop, between the first
-   and last ray whose capsule interval meets material; a ray along a cylinder's axis
+   (``interval.normal_row``) in one vectorised loop over the rays of a row that passed
+   step 2 (gathered first); a ray along a cylinder's axis
    and the rays those forms decline get ``parallel_cylinder_interval`` or
    ``kernels.swept_interval`` (the general path and accuracy reference), after the
    swept slab bound and the ray's own intervals have been checked.
@@ -132,6 +132,7 @@ def sweep_grid(  # type: ignore[no-untyped-def]
     row_c = np.empty(max(shape[0], shape[1]) + 1)
     row_d = np.empty(max(shape[0], shape[1]) + 1)
     row_ok = np.zeros(max(shape[0], shape[1]) + 1, np.bool_)
+    row_sel = np.zeros(max(shape[0], shape[1]) + 1, np.int64)
     n_c0 = n_c1 = n_c2 = n_c3 = n_c4 = n_c5 = 0
     n_moves = tips.shape[0]
     if n_moves == 0:
@@ -251,44 +252,51 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                                     ux, uy, uz, length, rho2)
                         n_c0 += nspan
                         r0 = ii * nj + j0
-                        # the rays whose capsule interval meets their material range,
-                        # before the exact intervals of a row are computed
-                        m_first = 0
-                        m_last = nspan - 1
+                        # for the row forms, the rays whose capsule interval (clipped by
+                        # the box) meets their material outside the first gap; an exact
+                        # interval lies inside it, so no other ray can change: only these
+                        # get the exact form and the per-ray work (other primitives test
+                        # each ray of the span in the per-ray loop)
+                        n_sel = 0
                         if rowwise:
-                            m_first = nspan
-                            m_last = -1
                             for m in range(nspan):
                                 r = r0 + m * step
-                                if (min(row_b[m], kmax) > max(row_a[m], kmin)
-                                        and row_a[m] < mat_hi[r] and row_b[m] > mat_lo[r]
-                                        and kmin < mat_hi[r] and kmax > mat_lo[r]):
-                                    m_first = min(m_first, m)
-                                    m_last = m
-                            if m_last < 0:
-                                continue
+                                ta = max(row_a[m], kmin)
+                                tb = min(row_b[m], kmax)
+                                row_sel[n_sel] = m
+                                n_sel += (tb > ta and ta < mat_hi[r] and tb > mat_lo[r]
+                                          and (ta < gap_lo[r] or tb > gap_hi[r]))
+                        else:
+                            for m in range(nspan):
+                                row_sel[m] = m
+                            n_sel = nspan
+                        if n_sel == 0:
+                            continue
                         if rowwise and normal:
-                            normal_row(row_c, row_d, row_ok, m_first, m_last + 1, cj0, step, h,
+                            normal_row(row_c, row_d, row_ok, row_sel, n_sel, cj0, step, h,
                                        w0, tipg[1], -tipg[2], ag[0], ag[1], ag[2], dg[0], dg[1],
                                        dg[2], zu, zd, alpha, beta, gamma, qa, qb, qc, zlo, zhi)
                         elif rowwise:
-                            endpoint_row(row_c, row_d, row_ok, m_first, m_last + 1, cj0, step,
+                            endpoint_row(row_c, row_d, row_ok, row_sel, n_sel, cj0, step,
                                          h, w0, tipg[1], -tipg[2], ag[0], ag[1], ag[2], dg[0],
                                          dg[1], dg[2], zu, zd, alpha, beta, gamma, qa, qb, qc,
                                          zlo, zhi)
-                        for m in range(m_first, m_last + 1):
-                            known = rowwise and row_ok[m]
-                            ta = row_c[m] if known else row_a[m]
-                            tb = row_d[m] if known else row_b[m]
+                        for q in range(n_sel):
+                            m = row_sel[q]
+                            known = rowwise and row_ok[q]
+                            ta = row_c[q] if known else row_a[m]
+                            tb = row_d[q] if known else row_b[m]
                             if not (known or exact):  # a bound: the box clips it
                                 ta = max(ta, kmin)
                                 tb = min(tb, kmax)
                             r = r0 + m * step
                             mlo = mat_lo[r]
                             mhi = mat_hi[r]
-                            # no material there, or all of it in the ray's first gap
-                            if not (tb > ta and ta < mhi and tb > mlo
-                                    and (ta < gap_lo[r] or tb > gap_hi[r])):
+                            # no material there, or all of it in the ray's first gap (the
+                            # test of the selection, again for an exact interval)
+                            if (known or not rowwise) and not (tb > ta and ta < mhi and tb > mlo
+                                                             and (ta < gap_lo[r]
+                                                                  or tb > gap_hi[r])):
                                 continue
                             n_c1 += 1
                             if known:

@@ -138,11 +138,12 @@ def _row_form(row_kernel, prim: np.ndarray, tip: np.ndarray, move: np.ndarray,  
     alpha = prim[0]
     out_a, out_b, out_ok = np.zeros(5), np.zeros(5), np.zeros(5, np.bool_)
     h = 0.1
-    row_kernel(out_a, out_b, out_ok, 1, 4, origin[ja] - 2 * h, 1, h, origin[ia] - tip[ia],
+    rays = np.array([3, 2, 1], np.int64)  # the row's rays 1..3, in any order
+    row_kernel(out_a, out_b, out_ok, rays, 3, origin[ja] - 2 * h, 1, h, origin[ia] - tip[ia],
                tip[ja], -tip[k], ag[0], ag[1], ag[2], dg[0], dg[1], dg[2], zu, zd, prim[0],
                prim[1], prim[2], uu + alpha * zu * zu, -ud - alpha * zu * zd,
                dd + alpha * zd * zd, prim[3], prim[4])
-    return bool(out_ok[2]), float(out_a[2]), float(out_b[2])
+    return bool(out_ok[1]), float(out_a[1]), float(out_b[1])
 
 
 @settings(max_examples=300, deadline=None)
