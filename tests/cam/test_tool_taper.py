@@ -111,3 +111,24 @@ def test_flank_view_reads_the_tool() -> None:
     # a tapered ball and a cylindrical one differ by the taper only
     cylinder = FlankTool.from_tool(resolve_tool("ball6_taper"))
     assert cylinder.half_angle == 0.0 and cylinder.r0 == 3.0
+
+
+@pytest.mark.parametrize("pitch", [0.1, 0.05])
+def test_verifier_sweeps_the_taper_a_flank_cut_wall_is_exact(pitch: float) -> None:
+    """A tapered ball leaning by its taper angle has a vertical flank line; swept along
+    Y through a box it leaves a vertical wall at ``x = R (1 - sin a)`` exactly (a
+    cylinder model of the flutes would leave a wall leaning by ``a``)."""
+    from cam.verify.stock import Stock
+
+    r, a = 2.0, math.radians(3.0)
+    tool = _tool("ball", r, r, 3.0, 20.0)
+    stock = Stock.box([-8.0, -8.0, -10.0], [8.0, 8.0, 0.0], pitch)
+    axis = np.array([-math.sin(a), 0.0, math.cos(a)])
+    tips = np.array([[0.0, -12.0, -8.0]])
+    stock.sweep(tips, np.array([[0.0, 24.0, 0.0]]), axis[None, :], np.array([0], np.int32),
+                tool_shape(tool))
+    points, _, made = stock.surface_samples()
+    wall = (made == 0) & (np.abs(points[:, 1]) < 5) & (points[:, 2] > -5.5) \
+        & (points[:, 2] < -0.5) & (points[:, 0] > 0) & (points[:, 0] < 4)
+    assert wall.sum() > 100
+    assert np.abs(points[wall, 0] - r * (1 - math.sin(a))).max() < 1e-9
