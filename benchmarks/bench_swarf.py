@@ -9,11 +9,13 @@ Stages (each writes under ``OUT/FIXTURE/``; run them in order):
   passes; every APT posted for trunnion-500 (its own dialect) into ``nc/``.
 * ``verify``: the verifier's own pieces on ``nc/finish_swarf.ngc``: the tool's swept
   primitives (``toolshape``), the program's sub-moves (``program_moves``, sweep
-  tolerance ``--sweep-tol``) swept through a tri-dexel stock at ``--resolution``
-  (``--stock``: a ``stock.npz`` such as the main job's rough stock, or the spec's
-  blank), then the stock surface samples the swarf program made, measured on each
-  pass's band against the exact side and the verifier's design mesh and compared
-  with the prediction (``cam.finishing.swarf_verify.measure_passes``).
+  tolerance ``--sweep-tol``, the chain's 0.01 mm by default; ``--angular-tol``: the
+  APT posted again with that angular tolerance, deg) swept through a tri-dexel
+  stock at ``--resolution`` (``--stock``: a ``stock.npz`` such as the main job's
+  rough stock, or the spec's blank), then the stock surface samples the swarf
+  program made, measured on each pass's band against the exact side and the
+  verifier's design mesh and compared with the prediction
+  (``cam.finishing.swarf_verify.measure_passes``).
 * ``cycle``: the product's cycle-time model (``program_cycle_time``: jerk-limited,
   exact stop) of every NC program of the run.
 
@@ -70,7 +72,8 @@ def finish_stage(fixture: str, tool: str, strategy: str, out: Path,
 
 
 def verify_stage(fixture: str, tool_name: str, out: Path, stock_arg: str, resolution: float,
-                 sweep_tol: float, clearance: float | None) -> None:
+                 sweep_tol: float, clearance: float | None,
+                 angular_tol: float | None = None) -> None:
     from cam.finishing.options import FinishOptions
     from cam.finishing.swarf_plan import swarf_walls
     from cam.finishing.swarf_verify import measure_passes, passes_of_program
@@ -98,19 +101,27 @@ def verify_stage(fixture: str, tool_name: str, out: Path, stock_arg: str, resolu
     passes = passes_of_program(walls, tips)
     machine = load_machine(MACHINE)
     kins = kinematics_for(machine)
-    program = read_nc(out / "nc" / "finish_swarf.ngc", machine=machine)
+    ngc = out / "nc" / "finish_swarf.ngc"
+    if angular_tol is not None:  # posted again, the axis held within angular_tol deg
+        from postproc.command import run_post
+
+        ngc = out / "nc" / f"finish_swarf_a{angular_tol:g}.ngc"
+        run_post(out / "finish" / "finish_swarf.apt", MACHINE, ngc,
+                 angular_tolerance_deg=angular_tol)
+    program = read_nc(ngc, machine=machine)
     shape = tool_shape(tool)
     t0 = time.perf_counter()
     stock = load_stock(stock_arg if stock_arg != "blank" else str(spec_path(fixture)),
                        resolution)
     earlier = len(stock.owners)
     moves = program_moves(program, machine, kins, shape.reach, sweep_tol)
-    _sweep_program(stock, moves, shape, earlier, None, "finish_swarf.ngc")
+    _sweep_program(stock, moves, shape, earlier, None, ngc.name)
     points, _, made = stock.surface_samples()
     mine = made >= earlier
     vertices, faces, _ = load_design(spec_path(fixture))
     report: dict[str, Any] = {"stage": "verify", "fixture": fixture, "tool": tool_name,
                               "stock": stock_arg, "resolution_mm": resolution,
+                              "program": ngc.name, "blocks": len(program.line),
                               "sweep_tolerance_mm": sweep_tol, "sub_moves": len(moves.tips),
                               "swarf_samples": int(mine.sum()), "passes": []}
     design = DesignDistance(vertices, faces)
@@ -122,7 +133,7 @@ def verify_stage(fixture: str, tool_name: str, out: Path, stock_arg: str, resolu
     report["passes"] = [m.as_dict() for m in found]
     report["largest_difference_mm"] = max((m.difference for m in found), default=None)
     report["wall_s"] = round(time.perf_counter() - t0, 1)
-    (out / "verify_swarf.json").write_text(json.dumps(report, indent=1))
+    (out / f"verify_{ngc.stem}.json").write_text(json.dumps(report, indent=1))
     print(json.dumps(report))
 
 
@@ -152,14 +163,16 @@ def main() -> None:
     parser.add_argument("--clearance", type=float, default=None)
     parser.add_argument("--stock", default="blank")
     parser.add_argument("--resolution", type=float, default=0.1)
-    parser.add_argument("--sweep-tol", type=float, default=0.002)
+    parser.add_argument("--sweep-tol", type=float, default=0.01)
+    parser.add_argument("--angular-tol", type=float, default=None,
+                        help="verify: post finish_swarf.apt again at this angular tolerance, deg")
     args = parser.parse_args()
     out = args.out / args.fixture
     if args.stage == "finish":
         finish_stage(args.fixture, args.tool, args.strategy, out, args.clearance)
     elif args.stage == "verify":
         verify_stage(args.fixture, args.tool, out, args.stock, args.resolution,
-                     args.sweep_tol, args.clearance)
+                     args.sweep_tol, args.clearance, args.angular_tol)
     else:
         cycle_stage(out)
 

@@ -27,6 +27,8 @@ __all__ = ["MeasuredPass", "measure_passes", "passes_of_program", "project_to_si
 Array = NDArray[np.float64]
 #: Gauss-Newton iterations of the projection.
 _ITERATIONS = 8
+#: Spacing of the projection's seed grid on a pass's band, mm.
+_SEED_STEP = 0.2
 
 
 @dataclass(frozen=True)
@@ -48,6 +50,9 @@ class MeasuredPass:
         (``nan`` without samples).
     mesh : (float, float) or None
         The same from the verifier's design mesh (``DesignDistance``), when given.
+    quantiles : (float, float)
+        The 0.1 % and 99.9 % quantiles of the measured distances (``nan`` without
+        samples).
     """
 
     wall: str
@@ -57,6 +62,7 @@ class MeasuredPass:
     predicted: tuple[float, float]
     measured: tuple[float, float]
     mesh: tuple[float, float] | None = None
+    quantiles: tuple[float, float] = (float("nan"), float("nan"))
 
     @property
     def difference(self) -> float:
@@ -69,11 +75,13 @@ class MeasuredPass:
         return {"wall": self.wall, "rulings": [self.first, self.last],
                 "samples": self.samples, "predicted_mm": list(self.predicted),
                 "measured_mm": list(self.measured), "difference_mm": self.difference,
+                "measured_q001_q999_mm": list(self.quantiles),
                 "design_mesh_mm": None if self.mesh is None else list(self.mesh)}
 
 
 def project_to_side(seg: Any, points: Array, v_max: float = 1.0,
-                    grid: tuple[int, int] = (801, 161)) -> tuple[Array, Array, Array]:
+                    grid: tuple[int, int] = (801, 161), within: float = np.inf
+                    ) -> tuple[Array, Array, Array, NDArray[np.intp]]:
     """Nearest points of a blade side to ``points``: parameters and signed distance.
 
     Parameters
@@ -86,17 +94,23 @@ def project_to_side(seg: Any, points: Array, v_max: float = 1.0,
         Largest v of the seed grid.
     grid : (int, int)
         Seed grid size in p and v.
+    within : float
+        Only points whose nearest seed lies within this distance are projected, mm.
 
     Returns
     -------
-    p, v : (n,) float64
+    p, v : (k,) float64
         Parameters of the foot point.
-    distance : (n,) float64
+    distance : (k,) float64
         ``(x - S(p, v)) . n``, mm.
+    index : (k,) intp
+        The points these answers belong to (all of them when ``within`` is inf).
     """
     pg, vg = np.meshgrid(np.linspace(0.0, 1.0, grid[0]), np.linspace(0.0, v_max, grid[1]),
                          indexing="ij")
-    _, nearest = cKDTree(seg.point(pg.ravel(), vg.ravel())).query(points)
+    gap, nearest = cKDTree(seg.point(pg.ravel(), vg.ravel())).query(points)
+    index = np.flatnonzero(gap <= within)
+    points, nearest = points[index], nearest[index]
     p, v = pg.ravel()[nearest].copy(), vg.ravel()[nearest].copy()
     h = 1e-6
     for _ in range(_ITERATIONS):
@@ -111,7 +125,7 @@ def project_to_side(seg: Any, points: Array, v_max: float = 1.0,
         p = p + (a22 * b1 - a12 * b2) / det
         v = v + (a11 * b2 - a12 * b1) / det
     distance = np.einsum("ij,ij->i", points - seg.point(p, v), seg.normal(p, v))
-    return p, v, np.asarray(distance)
+    return p, v, np.asarray(distance), index
 
 
 def passes_of_program(walls: list[SwarfWall], tips: Array, tolerance: float = 2e-3
@@ -141,6 +155,31 @@ def passes_of_program(walls: list[SwarfWall], tips: Array, tolerance: float = 2e
             if len(run) >= 2:
                 out.append((w, run))
     return out
+
+
+def _length(seg: Any, p0: float, p1: float, v: float) -> float:
+    """Length of the side's p-line at ``v`` from p0 to p1, or of its v-line at p0 from
+    0 to v when p0 == p1, mm (polyline of 101 points)."""
+    t = np.linspace(0.0, 1.0, 101)
+    line = seg.point(p0 + t * (p1 - p0), v * t if p0 == p1 else np.full_like(t, v))
+    return float(np.linalg.norm(np.diff(line, axis=0), axis=1).sum())
+
+
+def _project_range(seg: Any, points: Array, lo: float, hi: float, v_max: float,
+                   seeds: tuple[int, int], reach: float
+                   ) -> tuple[Array, Array, Array, NDArray[np.intp]]:
+    """``project_to_side`` over the p range [lo, hi] (reparametrised), points whose
+    nearest seed lies within ``reach`` plus a seed step."""
+    class _Range:
+        def point(self, q: Array, v: Array) -> Array:
+            return np.asarray(seg.point(lo + np.asarray(q) * (hi - lo), v))
+
+        def normal(self, q: Array, v: Array) -> Array:
+            return np.asarray(seg.normal(lo + np.asarray(q) * (hi - lo), v))
+
+    q, v, d, index = project_to_side(_Range(), points, v_max, seeds,
+                                     within=reach + 2.0 * _SEED_STEP)
+    return lo + q * (hi - lo), v, d, index
 
 
 def measure_passes(walls: list[SwarfWall], passes: list[tuple[int, NDArray[np.intp]]],
@@ -178,10 +217,11 @@ def measure_passes(walls: list[SwarfWall], passes: list[tuple[int, NDArray[np.in
         res = sw.result
         u = res.postures.u
         lo, hi = float(u[run[0]]), float(u[run[-1]])
-        ends = seg.point(np.array([lo, hi]), np.zeros(2))
-        centre, half = ends.mean(axis=0), 0.5 * float(np.linalg.norm(ends[1] - ends[0]))
-        near = np.linalg.norm(points - centre, axis=1) < half + 60.0
-        p, v, d = project_to_side(seg, points[near], float(res.v_bottom.max()))
+        v_max = float(res.v_bottom.max())
+        seeds = (max(int(np.ceil(_length(seg, lo, hi, 0.0) / _SEED_STEP)), 2),
+                 max(int(np.ceil(_length(seg, lo, lo, v_max) / _SEED_STEP)), 2))
+        p, v, d, index = _project_range(seg, points, lo, hi, v_max, seeds, reach)
+        near = index
         bottom = np.interp(p, u, res.v_bottom)
         length = np.linalg.norm(seg.point(p, bottom) - seg.point(p, np.zeros_like(p)), axis=1)
         inset = margin * bottom / np.maximum(length, 1e-9)
@@ -193,9 +233,11 @@ def measure_passes(walls: list[SwarfWall], passes: list[tuple[int, NDArray[np.in
         measured = (float(d[keep].min()), float(d[keep].max())) if keep.any() else nan
         mesh = None
         if design is not None:
-            m = design(points[near][keep]) if keep.any() else np.zeros(0)
+            m = design(points[near[keep]]) if keep.any() else np.zeros(0)
             mesh = (float(m.min()), float(m.max())) if len(m) else nan
+        quantiles = (tuple(float(x) for x in np.quantile(d[keep], [0.001, 0.999]))
+                     if keep.any() else nan)
         out.append(MeasuredPass(sw.wall.label, int(run[0]), int(run[-1]), int(keep.sum()),
                                 (float(predicted.min()), float(predicted.max())), measured,
-                                mesh))
+                                mesh, (quantiles[0], quantiles[1])))
     return out

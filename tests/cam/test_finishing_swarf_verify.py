@@ -28,7 +28,8 @@ def test_projection_recovers_parameters_and_offset() -> None:
     p, v = rng.uniform(0.05, 0.95, 200), rng.uniform(0.05, 0.95, 200)
     d = rng.uniform(-0.15, 0.15, 200)
     points = seg.point(p, v) + d[:, None] * seg.normal(p, v)
-    pp, vv, dd = project_to_side(seg, points)
+    pp, vv, dd, index = project_to_side(seg, points)
+    assert list(index) == list(range(200))
     assert np.abs(pp - p).max() < 1e-7 and np.abs(vv - v).max() < 1e-7
     assert np.abs(dd - d).max() < 1e-9
 
@@ -69,7 +70,7 @@ def test_straight_swarf_program_verified_within_its_prediction(tmp_path: Path) -
     machine = load_machine(MACHINE)
     shape = tool_shape(tool)
     moves = program_moves(read_nc(ngc, machine=machine), machine, kinematics_for(machine),
-                          shape.reach, 0.002)
+                          shape.reach, 0.01)
     stock = load_stock(str(STRAIGHT), 0.1)
     _sweep_program(stock, moves, shape, 0, None, ngc.name)
     points, _, made = stock.surface_samples()
