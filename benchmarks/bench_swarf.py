@@ -128,8 +128,10 @@ def verify_stage(fixture: str, tool_name: str, out: Path, stock_arg: str, resolu
     everywhere = design(points[mine])  # gouges anywhere the swarf program cut
     report["all_samples_min_mm"] = float(everywhere.min())
     report["gouges"] = int((everywhere < -0.05).sum())
+    collected: list[np.ndarray] = []
     found = measure_passes(walls, passes, points[mine], spec.leading_edge, spec.trailing_edge,
-                           design=design)
+                           design=design, collect=collected)
+    np.savez_compressed(out / f"samples_{ngc.stem}.npz", *collected)
     report["passes"] = [m.as_dict() for m in found]
     report["largest_difference_mm"] = max((m.difference for m in found), default=None)
     report["wall_s"] = round(time.perf_counter() - t0, 1)

@@ -185,7 +185,8 @@ def _project_range(seg: Any, points: Array, lo: float, hi: float, v_max: float,
 def measure_passes(walls: list[SwarfWall], passes: list[tuple[int, NDArray[np.intp]]],
                    points: Array, leading_edge: str, trailing_edge: str, *,
                    margin: float = 0.5, reach: float = 0.2,
-                   design: Callable[[Array], Array] | None = None) -> list[MeasuredPass]:
+                   design: Callable[[Array], Array] | None = None,
+                   collect: list[Array] | None = None) -> list[MeasuredPass]:
     """Measured against predicted deviation of every pass.
 
     Parameters
@@ -204,6 +205,9 @@ def measure_passes(walls: list[SwarfWall], passes: list[tuple[int, NDArray[np.in
     design : callable, optional
         Signed distance from the design mesh (``cam.verify.deviation.DesignDistance``):
         the measured samples' range by the verifier's own measure too.
+    collect : list, optional
+        Receives per pass a ``(k, 6)`` array of the measured samples: ``x, y, z, p, v,
+        distance`` (mm; for plots and diagnosis).
 
     Returns
     -------
@@ -229,6 +233,8 @@ def measure_passes(walls: list[SwarfWall], passes: list[tuple[int, NDArray[np.in
                 & (np.abs(d) < reach))
         rows = (res.sweep.u >= lo - 1e-12) & (res.sweep.u <= hi + 1e-12)
         predicted = res.sweep.deviation[rows]
+        if collect is not None:
+            collect.append(np.column_stack([points[near[keep]], p[keep], v[keep], d[keep]]))
         nan = (float("nan"), float("nan"))
         measured = (float(d[keep].min()), float(d[keep].max())) if keep.any() else nan
         mesh = None
