@@ -82,6 +82,8 @@ def tools_command(
         cutter = f"{tool.shape} D{tool.diameter:g}"
         if tool.shape == "bullnose":
             cutter += f" r{tool.corner_radius:g}"
+        if tool.flute_taper_deg:
+            cutter += f" tapered {tool.flute_taper_deg:g} deg"
         neck = f", taper {tool.taper_deg:g} deg" if tool.taper_deg else ""
         holder = " + ".join(
             f"{s.z1 - s.z0:g} x D{2 * s.r0:g}" + ("" if s.r0 == s.r1 else f"-{2 * s.r1:g}")

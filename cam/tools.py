@@ -6,7 +6,13 @@ frame: tip at the origin, axis +Z towards the spindle, lengths in mm.
 
 The outline is a list of ``Segment`` frusta (radius ``r0`` at height ``z0`` to
 ``r1`` at ``z1``) for the shank and holder; the cutter is a ball, flat or bull-nose
-end of radius R with corner radius rc, up to the flute length.
+end of radius R with corner radius rc, up to the flute length. Its flutes are a
+cylinder of radius R, or a cone of half-angle ``flute_taper_deg`` tangent to the
+corner arc (a tapered ball-end mill, the flank milling cutter of impeller shops):
+``r(h) = flank_r0 + h tan(alpha)`` above ``flank_start``. This is the one tool
+model: the collision meshes (``cam.collision.tool_mesh``), the verifier's swept
+primitives (``cam.verify.toolshape``) and the flank of swarf finishing
+(``cam.finishing.flank_tool``) are all built from it.
 """
 
 from __future__ import annotations
@@ -78,6 +84,9 @@ class Tool:
         Cutting feed, mm/min.
     taper_deg : float
         Half-angle of a tapered neck between flutes and shank, deg (0: straight).
+    flute_taper_deg : float
+        Half-angle of the flutes themselves, deg (0: cylindrical flutes). The cone is
+        tangent to the corner arc; ``diameter`` is the diameter at the tip.
     """
 
     name: str
@@ -92,11 +101,58 @@ class Tool:
     spindle_rpm: float | None = None
     feed: float | None = None
     taper_deg: float = 0.0
+    flute_taper_deg: float = 0.0
 
     @property
     def radius(self) -> float:
-        """Cutter radius R, mm."""
+        """Cutter radius R at the tip (the ball radius of a ball end mill), mm."""
         return 0.5 * self.diameter
+
+    @property
+    def flute_half_angle(self) -> float:
+        """Half-angle alpha of the flutes, rad (0: cylindrical)."""
+        return math.radians(self.flute_taper_deg)
+
+    @property
+    def flank_start(self) -> float:
+        """Height where the corner arc meets the flutes' side, mm.
+
+        ``rc (1 - sin(alpha))``: the cone of half-angle alpha is tangent to the corner
+        arc there (``rc`` for cylindrical flutes, 0 for a flat end).
+        """
+        return self.corner_radius * (1.0 - math.sin(self.flute_half_angle))
+
+    @property
+    def flank_r0(self) -> float:
+        """Radius of the flutes' side extrapolated to the tip plane ``h = 0``, mm.
+
+        ``R - rc + rc / cos(alpha) - rc tan(alpha)``; for a tapered ball
+        ``R_b / cos(alpha) - R_b tan(alpha)``.
+        """
+        a = self.flute_half_angle
+        rc = self.corner_radius
+        return self.radius - rc + rc / math.cos(a) - rc * math.tan(a)
+
+    def flank_radius_at(self, height: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Radius of the flutes' side (cylinder or cone) at heights above the tip, mm.
+
+        Parameters
+        ----------
+        height : (...) float64
+            Heights above the tip, mm (the line is extended beyond the flutes).
+
+        Returns
+        -------
+        (...) float64
+            ``flank_r0 + h tan(alpha)``, mm.
+        """
+        h = np.asarray(height, dtype=np.float64)
+        return np.asarray(self.flank_r0 + h * math.tan(self.flute_half_angle))
+
+    @property
+    def flute_top_radius(self) -> float:
+        """Radius of the cutter at the top of the flutes, mm."""
+        return float(self.flank_radius_at(np.array(self.flute_length)))
 
     @property
     def length(self) -> float:
@@ -111,7 +167,7 @@ class Tool:
         tuple of Segment
             Frusta ``(r0, z0, r1, z1)`` above the tip, mm.
         """
-        r = self.radius
+        r = self.flute_top_radius
         rs = 0.5 * self.shank_diameter
         z = self.flute_length
         segments: list[Segment] = []
@@ -136,14 +192,15 @@ class Tool:
         Returns
         -------
         (n,) float64
-            Radius of the cutter's outline at each height, mm.
+            Radius of the cutter's outline at each height, mm: the corner arc below
+            ``flank_start``, the flutes' side above.
         """
         h = np.asarray(height, dtype=np.float64)
         r, rc = self.radius, self.corner_radius
         inner = r - rc
         below = np.clip(rc - h, 0.0, rc)
         corner = inner + np.sqrt(np.maximum(rc * rc - below * below, 0.0))
-        return np.where(h >= rc, r, corner)
+        return np.where(h >= self.flank_start, self.flank_radius_at(h), corner)
 
     def outline(self, samples: int = 16) -> NDArray[np.float64]:
         """The tool's outline from the tip to the top of the holder.
@@ -158,11 +215,11 @@ class Tool:
         (k, 2) float64
             ``(radius, height above the tip)``, mm.
         """
-        heights = np.linspace(0.0, self.corner_radius, samples)
+        heights = np.linspace(0.0, self.flank_start, samples)
         points = [np.column_stack([self.radius_at(heights), heights])]
         if self.corner_radius == 0:
             points.insert(0, np.array([[0.0, 0.0]]))
-        points.append(np.array([[self.radius, self.flute_length]]))
+        points.append(np.array([[self.flute_top_radius, self.flute_length]]))
         for seg in (*self.shank_segments(), *self.holder):
             points.append(np.array([[seg.r0, seg.z0], [seg.r1, seg.z1]]))
         return np.vstack(points)
@@ -208,6 +265,7 @@ def _tool_from_table(table: ToolTable, path: Path, index: int) -> Tool:
         spindle_rpm=table.spindle_rpm,
         feed=table.feed_mm_min,
         taper_deg=table.taper_deg,
+        flute_taper_deg=table.flute_taper_deg,
     )
 
 

@@ -63,6 +63,9 @@ class ToolTable(Strict):
                                                description="shank diameter (default: diameter)")
     taper_deg: float = quantity(0.0, unit="deg", ge=0, lt=45,
                                 description="half-angle of a tapered neck (0: straight)")
+    flute_taper_deg: float = quantity(0.0, unit="deg", ge=0, lt=30,
+                                      description="half-angle of tapered flutes, the cone "
+                                      "tangent to the corner (0: cylindrical flutes)")
     stickout_mm: float = quantity(unit="mm", gt=0, description="gauge length tip to holder nose")
     spindle_rpm: float | None = quantity(None, unit="1/min", gt=0, description="spindle speed")
     feed_mm_min: float | None = quantity(None, unit="mm/min", gt=0, description="cutting feed")

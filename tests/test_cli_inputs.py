@@ -91,6 +91,7 @@ def test_tools_lists_parts(tmp_path: Path, capsys: Capture) -> None:
     assert "T2 ball6_taper: cutter ball D6" in out and "taper 2 deg" in out
     assert "holder 40 x D20-26 + 40 x D50" in out
     assert "bull10r2" in out and "r2" in out
+    assert "T8 ball6_flank3: cutter ball D6 tapered 3 deg, flutes 45, shank D12" in out
     assert main(["tools", str(FIXTURES / "nc" / "thirdparty" / "tools.toml")]) == 0
     assert capsys.readouterr().out.startswith("T1 ball4_long")
     bad = tmp_path / "lib.toml"

@@ -24,6 +24,9 @@ it): side radius ``R + offset``, corner radius ``max(rc + offset, 0)`` around th
 same corner centre, bottom at ``z = -offset``, top still at the flute length.
 For growth, and for shrinking by no more than the corner radius, this is the
 exact offset (dilation/erosion) of the cutter region below the flute length.
+Tapered flutes (``Tool.flute_taper_deg`` = alpha): the corner arc ends at the
+tangent point of the cone (angle ``-alpha``) and the side is the straight cone
+line from there to the flute length, moved out by ``offset / cos(alpha)``.
 """
 
 from __future__ import annotations
@@ -173,15 +176,18 @@ def cutter_profile(
             value=-offset,
             accepted=f"less than the cutter radius {tool.radius:g} mm",
         )
+    alpha = tool.flute_half_angle
     cx, cz = side - corner, bottom + corner
     points = [np.array([[0.0, bottom]])]
     excess = 0.0
     if corner > 0:
-        arc, excess = arc_polygon((cx, cz), corner, -0.5 * math.pi, 0.0, arc_step)
+        arc, excess = arc_polygon((cx, cz), corner, -0.5 * math.pi, -alpha, arc_step)
         points.append(arc)
     else:
         points.append(np.array([[side, bottom]]))
-    points.append(np.array([[side, tool.flute_length], [0.0, tool.flute_length]]))
+    r_start, z_start = points[-1][-1]
+    top = r_start + (tool.flute_length - z_start) * math.tan(alpha)
+    points.append(np.array([[top, tool.flute_length], [0.0, tool.flute_length]]))
     return _dedupe(np.vstack(points)), excess
 
 

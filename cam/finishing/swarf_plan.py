@@ -2,8 +2,8 @@
 
 For each wall of passage 0 (``paths.passage_walls``) the swarf pass is planned and
 predicted (``swarf_blade.plan_blade_side``) with the flank of the finishing tool
-(``FlankTool.from_tool``: the library's flutes are cylinders). Every run of
-consecutive rulings within the tolerances (``swarf_overcut_mm``,
+(``FlankTool.from_tool``: the flutes' side, a cylinder or the cone of a tapered
+ball). Every run of consecutive rulings within the tolerances (``swarf_overcut_mm``,
 ``swarf_undercut_mm``) and within the flutes becomes one pass of operation
 ``"swarf"``; its postures are fixed by the prediction (no smoothing or C remedy,
 which would change the deviation), checked like any finishing path

@@ -57,7 +57,7 @@ def _convex_hull(points: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
 
 def _tool_solids(tool: Any, gauge: float) -> list[Solid]:
     """Cutter + shank (a cylinder to the holder nose) and the holder hull, group Z."""
-    radius = max(tool.radius, 0.5 * tool.shank_diameter)
+    radius = max(tool.flute_top_radius, 0.5 * tool.shank_diameter)
     solids = [round_solid("tool", "Z", radius, radius, tool.stickout, "z",
                           (0.0, 0.0, 0.5 * tool.stickout - gauge))]
     if tool.holder:

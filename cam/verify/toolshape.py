@@ -13,14 +13,16 @@ sweep along a straight move is convex and a dexel line meets it in one interval.
 
 Shapes:
 
-* ball end: the ball ``[0, 2R]`` (only its lower half ``[0, R]`` when the flutes
-  are shorter than ``2R``) + cylinder ``[R, flute]``: exact (the upper half of the
-  ball lies inside the flute cylinder);
-* flat end: cylinder ``[0, flute]``: exact;
-* bull-nose: the torus corner is replaced by ``corner_segments`` frusta whose vertex
-  radii are pushed out by half the chord sagitta, so the profile error is below the
-  sagitta ``rc (1 - cos(pi / (4 n)))`` (n = 8, rc = 2 mm: 0.0096 mm); the flat bottom
-  and the cylinder above are exact;
+* ball end: the ball ``[0, 2R]`` (only its part below the flutes' side, ``[0, h_t]``,
+  when the flutes are shorter than ``2R``) + the flutes' side ``[h_t, flute]``, a
+  cylinder or, for tapered flutes (``Tool.flute_taper_deg``), the cone tangent to the
+  ball at ``h_t = Tool.flank_start``: exact (the ball above ``h_t`` lies inside the
+  side);
+* flat end: cylinder (or cone) ``[0, flute]``: exact;
+* bull-nose: the torus corner (up to the tangent of tapered flutes) is replaced by
+  ``corner_segments`` frusta whose vertex radii are pushed out by half the chord
+  sagitta, so the profile error is below the sagitta ``rc (1 - cos(pi / (4 n)))``
+  (n = 8, rc = 2 mm: 0.0096 mm); the flat bottom and the side above are exact;
 * shank and holder: the frusta of ``Tool.shank_segments()`` and ``Tool.holder``: exact.
 """
 
@@ -83,12 +85,13 @@ class ToolShape:
     profile_error: float
 
 
-def _corner_frusta(radius: float, corner: float, segments: int
+def _corner_frusta(radius: float, corner: float, segments: int, end: float = 0.5 * math.pi
                    ) -> tuple[list[Any], float]:
-    """Frusta along a bull-nose corner arc, vertices pushed out by half the sagitta."""
+    """Frusta along a bull-nose corner arc (from the bottom to the angle ``end``, rad),
+    vertices pushed out by half the sagitta."""
     inner = radius - corner
-    angles = np.linspace(0.0, 0.5 * math.pi, segments + 1)
-    half_step = 0.25 * math.pi / segments
+    angles = np.linspace(0.0, end, segments + 1)
+    half_step = 0.5 * end / segments
     sagitta = corner * (1.0 - math.cos(half_step))
     grow = corner + 0.5 * sagitta
     rows = []
@@ -118,22 +121,25 @@ def tool_shape(tool: Tool, corner_segments: int = CORNER_SEGMENTS) -> ToolShape:
         Spheres, frusta and cylinders along the tool axis (mm).
     """
     radius, corner, flute = tool.radius, tool.corner_radius, tool.flute_length
+    start = tool.flank_start  # where the flutes' side (cylinder or cone) begins
+    side = (float(tool.flank_radius_at(np.array(start))), tool.flute_top_radius)
     rows: list[NDArray[np.float64]] = []
     error = 0.0
     if tool.shape == "ball":
         # the whole ball when the flutes cover its upper half (the union with the
-        # flute cylinder is the same tool): its sweep is a capsule, a closed form
-        top = 2.0 * radius if flute >= 2.0 * radius else radius
+        # flutes' side is the same tool): its sweep is a capsule, a closed form
+        top = 2.0 * radius if flute >= 2.0 * radius else start
         rows.append(sphere_cap(radius, radius, 0.0, top))
-        if flute > radius:
-            rows.append(frustum(radius, flute, radius, radius))
+        if flute > start:
+            rows.append(frustum(start, flute, *side))
     elif tool.shape == "flat" or corner <= 0.0:
-        rows.append(frustum(0.0, flute, radius, radius))
+        rows.append(frustum(0.0, flute, *side))
     else:
-        corner_rows, error = _corner_frusta(radius, corner, corner_segments)
+        corner_rows, error = _corner_frusta(radius, corner, corner_segments,
+                                            0.5 * math.pi - tool.flute_half_angle)
         rows.extend(corner_rows)
-        if flute > corner:
-            rows.append(frustum(corner, flute, radius, radius))
+        if flute > start:
+            rows.append(frustum(start, flute, *side))
     body_rows = [
         frustum(seg.z0, seg.z1, seg.r0, seg.r1)
         for seg in (*tool.shank_segments(), *tool.holder)
@@ -141,7 +147,8 @@ def tool_shape(tool: Tool, corner_segments: int = CORNER_SEGMENTS) -> ToolShape:
     ]
     cutter = np.vstack(rows)
     body = np.vstack(body_rows) if body_rows else np.zeros((0, 6))
-    reach = math.hypot(flute, radius)
+    reach = math.hypot(flute, tool.flute_top_radius)
     top = tool.length
-    widest = max([radius, *(max(s.r0, s.r1) for s in (*tool.shank_segments(), *tool.holder))])
+    widest = max([tool.flute_top_radius,
+                  *(max(s.r0, s.r1) for s in (*tool.shank_segments(), *tool.holder))])
     return ToolShape(cutter, body, reach, math.hypot(top, widest), error)

@@ -66,7 +66,8 @@ def test_arc_polygon_circumscribes_with_stated_excess() -> None:
     assert np.allclose(np.linalg.norm(foot - [0.0, 3.0], axis=1), 3.0, atol=1e-12)
 
 
-@pytest.mark.parametrize("name", ["ball6_taper", "flat10", "bull10r2", "ball4_taper"])
+@pytest.mark.parametrize("name", ["ball6_taper", "flat10", "bull10r2", "ball4_taper",
+                                  "ball6_flank3"])
 def test_part_meshes_closed_and_circumscribing(name: str) -> None:
     tool = resolve_tool(name)
     parts = tool_geometry(tool)
@@ -95,15 +96,21 @@ def test_part_meshes_closed_and_circumscribing(name: str) -> None:
 
 
 def _outside_cutter(tool: Tool, r: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """Distance of meridian points (r, z) outside the true cutter outline (<= 0 inside)."""
-    big, rc = tool.radius, tool.corner_radius
+    """Distance of meridian points (r, z) outside the true cutter outline (<= 0 inside).
+
+    Above the tangent height the flutes' side (cylinder or cone of half-angle a):
+    ``(r - r(z)) cos a``; below it the corner arc or the flat bottom.
+    """
+    big, rc, a = tool.radius, tool.corner_radius, tool.flute_half_angle
+    side = (r - tool.flank_radius_at(z)) * np.cos(a)
+    foot = z + side * np.sin(a)  # the perpendicular's foot on the side line
     corner = np.hypot(r - (big - rc), z - rc) - rc
-    return np.where(z >= rc, r - big, np.where(r <= big - rc, -z, corner))
+    return np.where(foot >= tool.flank_start, side, np.where(r <= big - rc, -z, corner))
 
 
 def _true_radius(tool: Tool, part: str, z: np.ndarray) -> np.ndarray:
     if part == "cutter":
-        return np.where(z < tool.corner_radius, tool.radius_at(np.clip(z, 0, None)), tool.radius)
+        return tool.radius_at(np.clip(z, 0, None))
     segments = tool.shank_segments() if part == "shank" else tool.holder
     out = np.zeros_like(z)
     for seg in segments:

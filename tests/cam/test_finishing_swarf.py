@@ -80,7 +80,7 @@ U = np.linspace(0.0, 1.0, 41)
 @pytest.mark.parametrize("outside", [True, False])
 def test_cylinder_patch_flank_milled_exactly(outside: bool) -> None:
     patch = cylinder_patch(30.0, 20.0, 0.8, outside)
-    tool = FlankTool(r0=5.0, half_angle=0.0, flute_length=30.0)
+    tool = FlankTool.flat(5.0, 30.0)
     post = plan_postures(patch, tool, U)
     assert np.abs(post.deviation_min).max() < 1e-6
     assert np.abs(post.deviation_max).max() < 1e-6
@@ -140,7 +140,7 @@ def test_flank_signed_distance_closed_form() -> None:
 
 def test_twisted_patch_deviates_and_refinement_helps() -> None:
     patch = twisted_patch(4.0, 40.0, 20.0)
-    tool = FlankTool(r0=4.0, half_angle=0.0, flute_length=30.0, ball_radius=4.0)
+    tool = FlankTool.tapered_ball(4.0, 0.0, 30.0)
     u = np.linspace(0.0, 1.0, 11)
     plain = plan_postures(patch, tool, u, refine=False)
     fitted = plan_postures(patch, tool, u, overcut=0.0, undercut=0.0)
