@@ -131,7 +131,7 @@ def test_motions_and_their_minimum_answer_as_a_plain_fcl_loop(
     """Joint-linear samples through the postures (a sequence: the advancement
     applies), at cap 0 and at the obstacle's margin; ``smallest`` over them."""
     query = case["obstacle"].query(case["tool"])
-    joints = _branches(case)[0][:40]
+    joints = max(_branches(case), key=len)[:40]
     samples = joint_path_samples(joints, query.scene.step, query.rho)
     samples = samples[np.unique(np.linspace(0, len(samples) - 1, 240).round().astype(int))]
     fcl = _brute(query, samples)
