@@ -11,7 +11,9 @@ u.a`` over the two pieces (their support functions) is a lower bound of the dist
 
 ``pair_bounds`` walks the poses of one call in order, per pair:
 
-1. the bounding spheres' ``|c_i - c_j| - (r_i + r_j)``;
+1. the bounding spheres' ``|c_i - c_j| - (r_i + r_j)``, and each sphere's distance
+   from the other solid itself (exact from a box or a cylinder: the spindle head's
+   sphere, 359 mm for a 300 x 420 x 500 mm box, certifies nothing);
 2. conservative advancement: a bound ``d`` certified at an earlier row holds at this
    one less the motion of both solids since (``moved``: ``|delta centre| + radius *
    angle`` per row);
@@ -44,10 +46,13 @@ from numpy.typing import NDArray
 
 from cam.collision.gjk import _reduce
 
-__all__ = ["GUARD", "PackedSolids", "pack_solids", "pair_bounds", "stack_poses"]
+__all__ = ["ADVANCE_SLACK", "GUARD", "PackedSolids", "pack_solids", "pair_bounds",
+           "stack_poses"]
 
 #: Margin kept over fcl's own distance tolerance, mm (module docstring).
 GUARD = 1e-4
+#: How far above the limit a bound is improved, so that it carries over rows, mm.
+ADVANCE_SLACK = 2.0
 #: Width at which a GJK interval counts as converged, mm.
 _TOLERANCE = 1e-7
 #: Largest number of GJK iterations (the bound is certified whatever the count).
@@ -74,6 +79,9 @@ class PackedSolids:
         A piece that is an exact cylinder (as fcl measures it): centre (3), unit axis
         (3), radius and half-length in the group frame, mm; radius ``-1`` for a piece
         given by its points.
+    solid_box : (s, 6) float64
+        A solid that is a box (as fcl measures it): centre and half-sizes in its group
+        frame, mm; half-size ``-1`` otherwise.
     solid_start : (s + 1,) int64
         Solid ``i``'s pieces are ``solid_start[i]:solid_start[i + 1]``.
     solid_group : (s,) int64
@@ -91,6 +99,7 @@ class PackedSolids:
     piece_centre: Array
     piece_radius: Array
     piece_cylinder: Array
+    solid_box: Array
     solid_start: IntArray
     solid_group: IntArray
     solid_excess: Array
@@ -132,9 +141,19 @@ def pack_solids(solids: list[Any], tilt: str) -> PackedSolids:
     return PackedSolids(np.ascontiguousarray(np.vstack(chunks)),
                         np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64),
                         centre, radius, np.asarray(cylinders, np.float64),
+                        np.array([_box(s) for s in solids], np.float64),
                         np.asarray(solid_start, np.int64),
                         np.array([groups.index(s.group) for s in solids], np.int64),
                         np.asarray(excess, np.float64), groups)
+
+
+def _box(solid: Any) -> Array:
+    """``solid_box``'s row of a solid."""
+    out = np.full(6, -1.0)
+    if solid.box is not None and not solid.pieces:
+        out[:3] = solid.box[1]
+        out[3:] = 0.5 * np.asarray(solid.box[0], np.float64)
+    return out
 
 
 def _cylinder(solid: Any) -> Array:
@@ -252,12 +271,48 @@ def _centre(rot: Array, trans: Array, c: Array) -> tuple[float, float, float]:
 
 
 @numba.njit(cache=True, nogil=True)
+def _point_distance(x: float, y: float, z: float, rot: Array, trans: Array, box: Array,
+                    cylinder: Array, piece_centre: Array, piece_radius: Array, first: int,
+                    last: int) -> float:
+    """Lower bound of the distance of point ``(x, y, z)`` (machine frame) from a solid
+    (placed by ``rot``, ``trans``): exact for a box or a cylinder, else from its
+    pieces' bounding spheres, mm."""
+    # pragma: no cover - compiled
+    dx, dy, dz = x - trans[0], y - trans[1], z - trans[2]
+    lx = rot[0, 0] * dx + rot[1, 0] * dy + rot[2, 0] * dz
+    ly = rot[0, 1] * dx + rot[1, 1] * dy + rot[2, 1] * dz
+    lz = rot[0, 2] * dx + rot[1, 2] * dy + rot[2, 2] * dz
+    if box[3] >= 0.0:
+        qx = max(abs(lx - box[0]) - box[3], 0.0)
+        qy = max(abs(ly - box[1]) - box[4], 0.0)
+        qz = max(abs(lz - box[2]) - box[5], 0.0)
+        return math.sqrt(qx * qx + qy * qy + qz * qz)
+    c = cylinder[first]
+    if last - first == 1 and c[6] >= 0.0:
+        qx, qy, qz = lx - c[0], ly - c[1], lz - c[2]
+        along = qx * c[3] + qy * c[4] + qz * c[5]
+        rx, ry, rz = qx - along * c[3], qy - along * c[4], qz - along * c[5]
+        radial = max(math.sqrt(rx * rx + ry * ry + rz * rz) - c[6], 0.0)
+        axial = max(abs(along) - c[7], 0.0)
+        return math.sqrt(radial * radial + axial * axial)
+    out = math.inf
+    for k in range(first, last):
+        m = piece_centre[k]
+        d = math.sqrt((lx - m[0]) ** 2 + (ly - m[1]) ** 2 + (lz - m[2]) ** 2) - piece_radius[k]
+        out = min(out, d)
+    return max(out, 0.0)
+
+
+@numba.njit(cache=True, nogil=True)
 def _pieces_bound(points: Array, piece_start: IntArray, piece_centre: Array,
                   piece_radius: Array, cylinder: Array, si: int, ei: int, sj: int,
                   ej: int, ra: Array, ta: Array, rb: Array, tb: Array, prune: float,
-                  stop_below: float, guesses: Array, simplex: Array) -> tuple[float, float]:
+                  target: float, stop_below: float, guesses: Array, simplex: Array
+                  ) -> tuple[float, float]:
     """Lower and upper bound of the distance of two unions of pieces (``si:ei`` on
-    ``ra, ta``, ``sj:ej`` on ``rb, tb``); the lower bound stops at ``prune``."""
+    ``ra, ta``, ``sj:ej`` on ``rb, tb``); a piece pair's bound is improved up to
+    ``target`` (at or above ``prune``); classification (``stop_below`` finite) stops
+    at the first piece pair below ``prune``."""
     # pragma: no cover - compiled
     lower, upper = math.inf, math.inf
     slot = 0
@@ -267,10 +322,10 @@ def _pieces_bound(points: Array, piece_start: IntArray, piece_centre: Array,
             cbx, cby, cbz = _centre(rb, tb, piece_centre[b])
             sphere = math.sqrt((cax - cbx) ** 2 + (cay - cby) ** 2 + (caz - cbz) ** 2) \
                 - piece_radius[a] - piece_radius[b]
-            if sphere >= prune:
+            if sphere >= target:
                 lower = min(lower, sphere)
             else:
-                lo, hi = _gjk(points, piece_start, cylinder, a, ra, ta, b, rb, tb, prune,
+                lo, hi = _gjk(points, piece_start, cylinder, a, ra, ta, b, rb, tb, target,
                               stop_below, guesses[slot], simplex)
                 lower = min(lower, lo)
                 upper = min(upper, hi)
@@ -308,17 +363,17 @@ def _cumulative_motion(rot: Array, trans: Array, joints: Array, solid_group: Int
 
 @numba.njit(cache=True, nogil=True)
 def pair_bounds(points: Array, piece_start: IntArray, piece_centre: Array,
-                piece_radius: Array, cylinder: Array, solid_start: IntArray, solid_group: IntArray,
-                solid_excess: Array, solid_centre: Array, solid_radius: Array,
-                first: IntArray,
+                piece_radius: Array, cylinder: Array, solid_box: Array,
+                solid_start: IntArray, solid_group: IntArray, solid_excess: Array,
+                solid_centre: Array, solid_radius: Array, first: IntArray,
                 second: IntArray, limit: Array, rot: Array, trans: Array,
-                joints: Array, guesses: Array, tight: bool, best: float
+                joints: Array, guesses: Array, tight: bool, best: float, slack: float
                 ) -> tuple[Array, NDArray[np.bool_], float]:
     """Lower bounds of every pair at every pose (module docstring).
 
     Parameters
     ----------
-    points, piece_start, piece_centre, piece_radius, cylinder, solid_start,
+    points, piece_start, piece_centre, piece_radius, cylinder, solid_box, solid_start,
     solid_group, solid_excess
         ``PackedSolids`` (``cylinder``: ``piece_cylinder``).
     solid_centre, solid_radius : (s, 3), (s,) float64
@@ -337,6 +392,9 @@ def pair_bounds(points: Array, piece_start: IntArray, piece_centre: Array,
         ``smallest``'s mode: bounds to convergence below the running minimum.
     best : float
         Tight mode: a known distance the minimum is at or below (mm, ``inf``: none).
+    slack : float
+        A bound is improved up to ``slack`` (mm) above what certifies the row, so that
+        it carries over the next rows (``ADVANCE_SLACK``).
 
     Returns
     -------
@@ -373,6 +431,14 @@ def pair_bounds(points: Array, piece_start: IntArray, piece_centre: Array,
             cjx, cjy, cjz = _centre(rb, tb, solid_centre[j])
             bound = math.sqrt((cix - cjx) ** 2 + (ciy - cjy) ** 2 + (ciz - cjz) ** 2) \
                 - solid_radius[i] - solid_radius[j]
+            if bound < prune:  # each sphere against the other solid itself
+                bound = max(bound, _point_distance(
+                    cjx, cjy, cjz, ra, ta, solid_box[i], cylinder, piece_centre,
+                    piece_radius, solid_start[i], solid_start[i + 1]) - solid_radius[j])
+            if bound < prune:
+                bound = max(bound, _point_distance(
+                    cix, ciy, ciz, rb, tb, solid_box[j], cylinder, piece_centre,
+                    piece_radius, solid_start[j], solid_start[j + 1]) - solid_radius[i])
             carried = last_bound - ((cumulative[row, i] - cumulative[last_row, i])
                                     + (cumulative[row, j] - cumulative[last_row, j]))
             bound = max(bound, carried)
@@ -380,7 +446,7 @@ def pair_bounds(points: Array, piece_start: IntArray, piece_centre: Array,
                 lower, upper = _pieces_bound(
                     points, piece_start, piece_centre, piece_radius, cylinder, solid_start[i],
                     solid_start[i + 1], solid_start[j], solid_start[j + 1], ra, ta, rb, tb,
-                    prune, -math.inf if tight else prune, guesses[k], simplex)
+                    prune, prune + slack, -math.inf if tight else prune, guesses[k], simplex)
                 bound = max(bound, lower)
                 upper += solid_excess[i] + solid_excess[j]
                 if tight and upper < best:

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cam.verify.machine_bounds import pack_solids, pair_bounds, stack_poses
+from cam.verify.machine_bounds import ADVANCE_SLACK, pack_solids, pair_bounds, stack_poses
 from cam.verify.machine_scene import MachineScene, _distance, _radii
 from postproc.machine_model import TOOL_SIDE, group_poses
 
@@ -241,10 +241,11 @@ class MachineClearance:
         packed = self.packed
         return pair_bounds(  # type: ignore[no-any-return]
             packed.points, packed.piece_start, packed.piece_centre, packed.piece_radius,
-            packed.piece_cylinder, packed.solid_start, packed.solid_group,
+            packed.piece_cylinder, packed.solid_box, packed.solid_start, packed.solid_group,
             packed.solid_excess, self.centre, self.radius,
             self._first, self._second, np.ascontiguousarray(limit, dtype=np.float64), rot,
-            trans, np.ascontiguousarray(joints, dtype=np.float64), self.guesses, tight, best)
+            trans, np.ascontiguousarray(joints, dtype=np.float64), self.guesses, tight, best,
+            ADVANCE_SLACK)
 
 
 def joint_path_samples(joints: Array, step: float, rho: dict[str, float], *,
