@@ -9,18 +9,20 @@ its points, which holds it). So, for any unit direction ``u``, ``min_b u.b - max
 u.a`` over the two pieces (their support functions) is a lower bound of the distance
 (a separating-plane certificate), whatever way ``u`` was found.
 
-``pair_bounds`` walks the poses of one call in order, per pair:
+``pair_bounds`` walks the poses of one call in order, per pair (the first that
+certifies the row ends it):
 
 1. the bounding spheres' ``|c_i - c_j| - (r_i + r_j)``, and each sphere's distance
    from the other solid itself (exact from a box or a cylinder: the spindle head's
    sphere, 359 mm for a 300 x 420 x 500 mm box, certifies nothing);
-2. conservative advancement: a bound ``d`` certified at an earlier row holds at this
-   one less the motion of both solids since (``moved``: ``|delta centre| + radius *
-   angle`` per row);
+2. conservative advancement (checked first): a bound ``d`` found at an earlier row
+   (by 1, 3 or itself) holds at this one less the motion of both solids since
+   (``|delta centre| + radius * angle`` per row);
 3. per pair of convex pieces, Gilbert-Johnson-Keerthi on the two point sets, started
    from the direction the same piece pair ended with last time (consecutive poses are
    close, so one support usually certifies), with the simplex reduction of
-   ``cam.collision.gjk``; every iteration's certificate is a valid bound.
+   ``cam.collision.gjk``; every iteration's certificate is a valid bound. A bound is
+   improved to ``ADVANCE_SLACK`` past what certifies the row, so that it carries.
 
 A pair is certified at a row when one of them reaches ``limit + GUARD``; then its
 value is that bound less ``GUARD`` (still at or above the limit). Otherwise the row is
@@ -425,32 +427,36 @@ def pair_bounds(points: Array, piece_start: IntArray, piece_centre: Array,
             prune = limit[k] + GUARD
             if tight:
                 prune = max(prune, best + 2.0 * GUARD)
-            ra, ta = rot[row, gi], trans[row, gi]
-            rb, tb = rot[row, gj], trans[row, gj]
-            cix, ciy, ciz = _centre(ra, ta, solid_centre[i])
-            cjx, cjy, cjz = _centre(rb, tb, solid_centre[j])
-            bound = math.sqrt((cix - cjx) ** 2 + (ciy - cjy) ** 2 + (ciz - cjz) ** 2) \
-                - solid_radius[i] - solid_radius[j]
-            if bound < prune:  # each sphere against the other solid itself
-                bound = max(bound, _point_distance(
-                    cjx, cjy, cjz, ra, ta, solid_box[i], cylinder, piece_centre,
-                    piece_radius, solid_start[i], solid_start[i + 1]) - solid_radius[j])
+            # the bound carried from the last row with a fresh one, first: on a path
+            # it certifies most rows of the pairs far from their limit
+            bound = last_bound - ((cumulative[row, i] - cumulative[last_row, i])
+                                  + (cumulative[row, j] - cumulative[last_row, j]))
             if bound < prune:
-                bound = max(bound, _point_distance(
-                    cix, ciy, ciz, rb, tb, solid_box[j], cylinder, piece_centre,
-                    piece_radius, solid_start[j], solid_start[j + 1]) - solid_radius[i])
-            carried = last_bound - ((cumulative[row, i] - cumulative[last_row, i])
-                                    + (cumulative[row, j] - cumulative[last_row, j]))
-            bound = max(bound, carried)
-            if bound < prune:
-                lower, upper = _pieces_bound(
-                    points, piece_start, piece_centre, piece_radius, cylinder, solid_start[i],
-                    solid_start[i + 1], solid_start[j], solid_start[j + 1], ra, ta, rb, tb,
-                    prune, prune + slack, -math.inf if tight else prune, guesses[k], simplex)
-                bound = max(bound, lower)
-                upper += solid_excess[i] + solid_excess[j]
-                if tight and upper < best:
-                    best = upper
+                ra, ta = rot[row, gi], trans[row, gi]
+                rb, tb = rot[row, gj], trans[row, gj]
+                cix, ciy, ciz = _centre(ra, ta, solid_centre[i])
+                cjx, cjy, cjz = _centre(rb, tb, solid_centre[j])
+                bound = max(bound, math.sqrt((cix - cjx) ** 2 + (ciy - cjy) ** 2
+                                             + (ciz - cjz) ** 2)
+                            - solid_radius[i] - solid_radius[j])
+                if bound < prune:  # each sphere against the other solid itself
+                    bound = max(bound, _point_distance(
+                        cjx, cjy, cjz, ra, ta, solid_box[i], cylinder, piece_centre,
+                        piece_radius, solid_start[i], solid_start[i + 1]) - solid_radius[j])
+                if bound < prune:
+                    bound = max(bound, _point_distance(
+                        cix, ciy, ciz, rb, tb, solid_box[j], cylinder, piece_centre,
+                        piece_radius, solid_start[j], solid_start[j + 1]) - solid_radius[i])
+                if bound < prune:
+                    lower, upper = _pieces_bound(
+                        points, piece_start, piece_centre, piece_radius, cylinder,
+                        solid_start[i], solid_start[i + 1], solid_start[j], solid_start[j + 1],
+                        ra, ta, rb, tb, prune, prune + slack, -math.inf if tight else prune,
+                        guesses[k], simplex)
+                    bound = max(bound, lower)
+                    upper += solid_excess[i] + solid_excess[j]
+                    if tight and upper < best:
+                        best = upper
                 if bound >= prune:
                     last_bound, last_row = bound, row
             value[row, k] = bound - GUARD if bound >= prune else bound
