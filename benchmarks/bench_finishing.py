@@ -121,6 +121,12 @@ def child(out: Path, tool: str, options: dict[str, Any]) -> None:
     # (e.g. [model]) that the older code refuses
     tree = Path(cam.__file__).resolve().parents[1]
     spec, machine = (tree / p.relative_to(ROOT) for p in (SPEC, MACHINE))
+    from dataclasses import fields
+
+    from cam.finishing.options import FinishOptions
+
+    if "edge_passes" not in {f.name for f in fields(FinishOptions)}:
+        options.pop("edge_passes", None)  # a tree before the edge passes (7e9ac6f)
     if options.pop("edge_only", False):
         edge_child(spec, machine, tool, options)
         return
@@ -230,8 +236,8 @@ def main() -> None:
                         help="time the edge passes' planning alone on both sides (scene "
                              "built first, not timed; no APT, no re-check)")
     parser.add_argument("--edge-passes", action="store_true",
-                        help="the new side also plans the edge passes (issue 28), which the "
-                             "baseline does not have: off, both sides do the same work")
+                        help="plan the edge passes (issue 28) on both sides (a baseline "
+                             "without them, 7e9ac6f, plans none): off, both do the same work")
     args = parser.parse_args()
     if args.child is not None:
         child(args.child, args.tool, json.loads(args.options))
@@ -260,7 +266,8 @@ def main() -> None:
                 base = worktree
             try:
                 sides["baseline"] = run_side(base.resolve(), work / "baseline",
-                                             args.cache / "baseline", tool, options,
+                                             args.cache / "baseline", tool,
+                                             dict(options, edge_passes=args.edge_passes),
                                              args.passages)
             finally:
                 if worktree is not None:

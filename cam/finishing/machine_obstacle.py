@@ -79,6 +79,7 @@ class MachineObstacle(CollisionScene):
         self.part = part
         self.margin = 0.5 * model.step if margin is None else float(margin)
         self.queries: dict[str, MachineClearance] = {}
+        self.every: dict[str, MachineClearance] = {}
 
     def __getattr__(self, name: str) -> Any:
         if name == "inner":  # not set yet: no recursion
@@ -98,9 +99,18 @@ class MachineObstacle(CollisionScene):
                                                                tool_side=True)
         return found
 
+    def query_every(self, tool: Tool) -> MachineClearance:
+        """The clearance query of ``tool`` over every checked pair, the table side's
+        too (the verifier's; cached per tool name)."""
+        found = self.every.get(tool.name)
+        if found is None:
+            found = self.every[tool.name] = MachineClearance(self.query(tool).scene, self.kins)
+        return found
+
     @property
     def stats(self) -> dict[str, float]:
-        """Poses asked, fcl queries, process seconds of the machine queries (all tools)."""
+        """Poses asked, fcl queries, process seconds of the planner's machine queries
+        (all tools; not ``query_every``'s, which serves finish.json's operations)."""
         queries = list(self.queries.values())
         return {"poses": sum(q.poses for q in queries),
                 "distance_queries": sum(q.queries for q in queries),
@@ -239,16 +249,15 @@ def operation_clearance(obstacle: MachineObstacle, tool: Tool, tip: Array, axis:
     """
     from postproc.kinematics.base import OverTravelError
 
-    query = MachineClearance(obstacle.query(tool).scene, obstacle.kins)  # every pair
+    query = obstacle.query_every(tool)
     try:
         joints = obstacle.kins.inverse(np.asarray(tip, np.float64), np.asarray(axis, np.float64))
     except OverTravelError as error:
         return {"machine_clearance_mm": None, "note": f"not reachable: {error}"}
     samples, starts = joint_path_samples(joints, obstacle.model.step, query.rho,
                                          with_starts=True)
-    found = query.query(samples)
+    found, (smallest, pair, row) = query.survey(samples)
     below = found.margin < 0.0  # exact wherever a pair is within its clearance
-    smallest, pair, row = query.smallest(samples, found)
     if not math.isfinite(smallest):
         return {"machine_clearance_mm": None}
     move = np.searchsorted(starts, np.flatnonzero(below), side="left")
