@@ -26,6 +26,22 @@ app = typer.Typer(
 )
 
 
+def _report_verdict(out: Path) -> None:
+    """After a chain: warn of milled faces over the limit, and end with exit code 1 when
+    the verification found a program unsafe (``cam.run.verdict``)."""
+    from cam.run.verdict import chain_verdict
+
+    verdict = chain_verdict(out)
+    for line in verdict.shortfalls:
+        typer.echo(f"warning: {line}", err=True)
+    if not verdict.safe:
+        for line in verdict.faults:
+            typer.echo(f"error: verification failed: {line}", err=True)
+        typer.echo("error: do not run these NC programs: the verification found them "
+                   "unsafe", err=True)
+        raise typer.Exit(code=1)
+
+
 def _machine(path: Path) -> Path:
     """``-m``: a machine file, or the name of a bundled one (``trunnion-500``)."""
     from impeller_cam.data import bundled
@@ -305,6 +321,7 @@ def run_command(
         from cam.run import run_chain
 
         run_chain(specs[0], _machine(machine), out, **options)  # bad input: nothing written
+        _report_verdict(out)
         return
     from cam.run import run_batch
 
