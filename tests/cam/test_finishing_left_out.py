@@ -127,3 +127,5 @@ def test_a_pass_beside_the_wall_only_is_dropped(scene: CollisionScene,
                                None)
     assert pieces == [] and lost.tolist() == list(range(5))
     assert cut_short_entry(path, lost)["dropped"]
+    summary = FinishResult(pieces, TOOL, FinishOptions(), "test").summary()
+    assert summary["paths"] == summary["collisions"] == summary["motion_collisions"] == 0
