@@ -189,6 +189,7 @@ def post_stage(ctx: Context) -> None:
     from postproc.nc_reader import read_nc
     from postproc.posts import get_post
 
+    files = apt_files(ctx)  # names the first stage whose outputs are missing
     found = known_collisions(read_json(ctx, "finish/finish.json", "finish"))
     if found:
         shown = "; ".join(found[:10]) + (f"; and {len(found) - 10} more"
@@ -203,7 +204,7 @@ def post_stage(ctx: Context) -> None:
     dialect = get_post(ctx.settings.post or machine.post)
     programs = []
     with staged_directory(ctx.out / "nc") as stage:
-        for operation, apt, tool in apt_files(ctx):
+        for operation, apt, tool in files:
             text = post_text(ctx.out / apt, ctx.machine, post=dialect.name,
                              tcp=ctx.settings.tcp, post_options=ctx.settings.post_options)
             name = f"{Path(apt).stem}.{dialect.extension}"

@@ -65,7 +65,11 @@ def test_without_rough_json_the_rough_stage_is_named(tmp_path: Path) -> None:
 def _finish_json(ctx: Context, **changes: Any) -> None:
     """A finish.json with one clean path and one operation, ``changes`` applied."""
     path = {"name": "p0.blade.blade0.pressure.01", "collisions": 0, "motion_collisions": 0}
+    rough = json.loads((ctx.out / "rough" / "rough.json").read_text())
+    (ctx.out / "rough" / "rough.json").write_text(json.dumps(
+        {**rough, "tool": {"name": "ball6"}, "operations": [{"apt": "rough_umr1.apt"}]}))
     document: dict[str, Any] = {
+        "tool": {"name": "ball4_taper"},
         "paths": [{**path, **changes.get("path", {})}],
         "operations": {"blade": {"apt": "finish_blade.apt", "link_collisions": 0,
                                  **changes.get("operation", {})}},
