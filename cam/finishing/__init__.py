@@ -10,8 +10,10 @@ One module per step of the method (seeds 000, second half, and 001):
 * ``interference``: collision checks and the dC remedy up to Cmax;
 * ``repair``: postures the remedy cannot fix (axis near the C axis) and the
   normal-angle / lead / tilt limits: cone search, blended into A and C monotonically;
-* ``plan``: the procedure per path and its result; ``linking``: one toolpath per
-  operation; ``plots``: Figs. 12-13; ``command``: ``impeller-cam finish``.
+* ``plan``: the procedure per path and its result (``monotone_joints``: A and C made
+  monotone); ``pieces``: what the repair cannot free is left out, the pass cut into
+  its clean pieces; ``linking``: one toolpath per operation; ``plots``: Figs. 12-13;
+  ``command``: ``impeller-cam finish``.
 
 The front door: ``FinishOptions`` and the reversal tools import at once (light);
 ``plan_finishing``, ``FinishResult``, ``finish_toolpaths`` and ``run_finish`` load on

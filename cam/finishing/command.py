@@ -12,7 +12,9 @@ Writes into OUT/ (all or nothing, ``staged_directory``):
 * ``finish.json``: per path the number of points, reverse movements of A and C
   before and after (``reversals_before`` / ``reversals_after``), ``collisions``,
   ``min_clearance_mm``, the largest deviation of the ball centre from its ideal path,
-  and more (docs/formats.md);
+  and more (docs/formats.md); ``cut_short``: the points of every pass left out because
+  no posture there keeps every rule (``cam.finishing.pieces``: never cut, so the
+  programs hold no known collision);
 * ``plots/<path>.png``: A and C angular displacement before and after smoothing
   (passage 0; the other passages are rotations of it and have the same curves);
 * ``scene.stl``: the collision meshes the postures were checked against.
@@ -359,11 +361,11 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
             check_machine_reach, obstacle, the_tool, options=opts, machine=str(machine))
         result = plan_finishing(surfaces, the_tool, kins, collision, plan_opts,
                                 scene_source=scene, progress=report, skip=skip, before=reach)
+        cut_short: list[dict[str, Any]] = list(result.extra.get("cut_short", []))
         result = FinishResult(result.paths, the_tool, opts, scene)
         toolpaths = finish_toolpaths(result, surfaces, collision, kins)
         tools = {op: the_tool for op in toolpaths}
         swarf_entry = None
-        cut_short: list[dict[str, Any]] = []
         if flank is not None:
             swarf_entry = flank.extra["swarf"]
             if flank.paths:
@@ -388,6 +390,8 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                            for op, (tp, air, _) in toolpaths.items()}
     summary = result.summary()
     entries = summary.pop("path_entries")
+    summary["left_out_points"] = int(sum(len(e["left_out"]) for e in cut_short))
+    summary["dropped_paths"] = [e["path"] for e in cut_short if e["dropped"]]
     stock_entry = (_engagement(stock_scene, result, entries)
                    if stock_scene is not None else None)
     machine_entry = (None if obstacle is None

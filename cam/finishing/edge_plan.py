@@ -17,11 +17,11 @@ turns monotonically round the edge (from one side's normal to the other's, throu
 the edge's outward direction, by at most 2 atan(SIDE_SHARE)), and each level's lean
 is the first of ``LEAN_LADDER_DEG`` whose initial postures keep every clearance
 (``interference.first_interference``), so the eq. 7 remedy has nothing to turn. After the
-M3 procedure (``fillet_plan.finish_trimmed``) every posture must still lean at least
+M3 procedure (``pieces.finish_trimmed``) every posture must still lean at least
 ``MIN_LEAN_DEG`` off the surface at its contact (``lean_at_contact``); a level that
 does not is planned again at the next lean of the ladder. Levels that reach the end
 of the ladder keep the last result, and their postures below the minimum lean are
-counted (``EdgeReport``). Like the fillet passes (``fillet_plan.finish_runs``) a
+counted (``EdgeReport``). Like the fillet passes (``pieces.finish_runs``) a
 level whose ends are trimmed keeps the clean runs of the trimmed points as pieces of
 their own (each also leaning at least ``MIN_LEAN_DEG`` everywhere), and the points
 left out are listed in finish.json's ``cut_short``.
@@ -39,10 +39,10 @@ from numpy.typing import NDArray
 
 from cam.collision import CollisionScene
 from cam.finishing.edge_paths import EdgeLevel, edge_levels
-from cam.finishing.fillet_plan import cut_short_entry, finish_runs
 from cam.finishing.interference import first_interference
 from cam.finishing.options import FinishOptions, scallop_stepover
 from cam.finishing.paths import CutterPath, rotate_path
+from cam.finishing.pieces import cut_short_entry, finish_runs
 from cam.finishing.plan import FinishResult, PathResult
 from cam.finishing.posture import initial_axes
 from cam.tools import Tool
@@ -123,7 +123,6 @@ def _plan_level(level: EdgeLevel, passage: int, pitch: float, tool: Tool, kins: 
         low = sum(_low_lean(piece) for piece in pieces)
         if not low and not any(piece.interference.interfering_points.size for piece in pieces):
             break
-    assert pieces
     return pieces, rung, low, (cut_short_entry(path, lost) if lost.size else None)
 
 
@@ -145,7 +144,7 @@ def plan_edges(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     FinishResult
         Paths of operation ``"edge"`` in passage order; ``extra["edge"]``: the
         ``EdgeReport``; ``extra["cut_short"]``: the points left out, per level
-        (``fillet_plan.cut_short_entry``).
+        (``pieces.cut_short_entry``).
     """
     levels = edge_levels(surfaces, tool.radius,
                          scallop_stepover(tool.radius, options.scallop_mm),
@@ -172,6 +171,6 @@ def plan_edges(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                 cut_short.append(short)
             done += 1
             if progress is not None:
-                progress(done, total, pieces[0].path.name)
+                progress(done, total, pieces[0].path.name if pieces else level.path.name)
     return FinishResult(results, tool, options, scene_source,
                         extra={"edge": report, "cut_short": cut_short})

@@ -4,7 +4,9 @@ Per cutter-centre path (``paths``): initial postures (``posture``), machine join
 from the machine's inverse kinematics, reverse movements of A and C removed
 (``reversals``; X, Y, Z reversals reported), tool tips recomputed from the
 unchanged ball centres, interference checked and remedied (``interference``), then
-postures still breaking a rule repaired (``repair``).
+postures still breaking a rule repaired (``repair``); a pass whose postures the
+repair cannot free is cut into its clean pieces, the rest left out and named
+(``pieces.finish_runs``, finish.json ``cut_short``).
 ``plan_finishing`` returns a ``FinishResult``; ``summary`` is what finish.json holds
 (docs/formats.md).
 """
@@ -20,6 +22,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam.finishing.interference import InterferenceResult, StepHint, resolve_interference
+from cam.finishing.monotone_joints import (
+    LINEAR,
+    ROTARY,
+    inverse_joints,
+    remove_reversals,
+    reversal_counts,
+)
 from cam.finishing.options import FinishOptions, scallop_stepover
 from cam.finishing.passes import passage_paths
 from cam.finishing.paths import CutterPath, blade_distance, rotate_path, subset_path
@@ -34,12 +43,7 @@ from cam.finishing.posture import (
     rotate_about_z,
 )
 from cam.finishing.repair import PostureRules, RepairResult, repair_postures, rule_violations
-from cam.finishing.reversals import (
-    SmoothingResult,
-    count_reversals,
-    reversal_points,
-    smooth_monotone,
-)
+from cam.finishing.reversals import SmoothingResult, reversal_points
 from cam.tools import Tool
 from geometry.revolved import RevolvedSurface
 from geometry.surfaces import ImpellerSurfaces
@@ -60,20 +64,8 @@ __all__ = [
 ]
 
 Array = NDArray[np.float64]
-#: Outer rounds (smooth -> inverse kinematics -> count) of the reversal removal.
-_OUTER_ROUNDS = 3
-ROTARY = ("A", "C")
-LINEAR = ("X", "Y", "Z")
-
-
-def reversal_counts(joints: Array, options: FinishOptions) -> dict[str, int]:
-    """Reverse movements per axis of ``(n, 5)`` joints (X Y Z mm, A C rad)."""
-    angular = math.radians(options.reversal_deadband_deg)
-    out = {name: count_reversals(joints[:, i], options.linear_deadband_mm)
-           for i, name in enumerate(LINEAR)}
-    out.update({name: count_reversals(joints[:, 3 + i], angular)
-                for i, name in enumerate(ROTARY)})
-    return out
+#: The joints of postures, the path named on failure (``monotone_joints``).
+_inverse = inverse_joints
 
 
 @dataclass
@@ -114,6 +106,10 @@ class PathResult:
     breaks : (k,) intp
         Hub passes: moves ``i -> i + 1`` turning the axis faster than the option
         ``max_axis_turn_deg_per_mm``: machined in pieces (``order.ordered_passes``).
+    piece_of : str or None
+        A piece of a pass cut where postures break a rule (``pieces.finish_runs``):
+        the pass's name (its pieces are machined as one pass, each entered from the
+        air); None for a whole pass.
     """
 
     path: CutterPath
@@ -136,6 +132,7 @@ class PathResult:
     trimmed: int = 0
     step_hint: StepHint | None = None
     breaks: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+    piece_of: str | None = None
 
     def summary(self, options: FinishOptions) -> dict[str, Any]:
         """This path's entry of finish.json (mm, deg)."""
@@ -192,62 +189,6 @@ class PathResult:
                 "unresolved_points": self.repair.unresolved.tolist(),
             },
         }
-
-
-def _path_parameter(centre: Array) -> Array:
-    """Normalised arc length of the ball centres, strictly increasing in [0, 1]."""
-    step = np.linalg.norm(np.diff(centre, axis=0), axis=1)
-    step = np.maximum(step, 1e-9 * max(float(step.max()), 1.0))
-    arc = np.concatenate([[0.0], np.cumsum(step)])
-    return np.asarray(arc / arc[-1])
-
-
-def _inverse(kins: Kinematics, tip: Array, axis: Array, name: str) -> Array:
-    try:
-        return kins.inverse(tip, axis)
-    except InputError as error:
-        raise InputError(f"path {name}: {error}", field="machine",
-                         accepted="a machine whose axes reach every finishing posture") \
-            from error
-
-
-def remove_reversals(centre: Array, axis: Array, joints: Array, kins: Kinematics,
-                     radius: float, options: FinishOptions, name: str = "path"
-                     ) -> tuple[Array, Array, dict[str, SmoothingResult]]:
-    """Smooth A and C until monotone; new axes from the forward kinematics.
-
-    The ball centres are kept: the tips are ``centre - R axis`` for the new axes.
-
-    Returns
-    -------
-    axis : (n, 3) float64
-    joints : (n, 5) float64
-        Joints of the new postures (inverse kinematics, as the post will compute them).
-    smoothing : dict
-        ``{"A": SmoothingResult, "C": SmoothingResult}`` of the last round that changed
-        the axis (``method == "none"`` when nothing was needed).
-    """
-    t = _path_parameter(centre)
-    deadband = math.radians(options.reversal_deadband_deg)
-    done = {k: SmoothingResult(joints[:, 3 + i].copy(), 0, [], "none")
-            for i, k in enumerate(ROTARY)}
-    for _ in range(_OUTER_ROUNDS):
-        counts = [count_reversals(joints[:, 3 + i], deadband) for i in range(2)]
-        if not any(counts):
-            break
-        smoothed = joints.copy()
-        for i, key in enumerate(ROTARY):
-            if counts[i]:
-                result = smooth_monotone(
-                    t, joints[:, 3 + i], basis_functions=options.basis_functions,
-                    min_shift=math.radians(options.phi_l_deg), deadband=deadband,
-                    max_rounds=options.max_smoothing_iterations,
-                    scope=options.smoothing_scope)
-                smoothed[:, 3 + i] = result.values
-                done[key] = result
-        _, axis = kins.forward(smoothed)
-        joints = _inverse(kins, centre - radius * axis, axis, name)
-    return axis, joints, done
 
 
 def junction_errors(path: CutterPath, centres: Array, hub: RevolvedSurface, radius: float,
@@ -404,7 +345,8 @@ class FinishResult:
             "collisions": int(sum(e["collisions"] for e in entries)),
             "motion_collisions": int(sum(e["motion_collisions"] for e in entries)),
             "min_clearance_mm": min(clear) if clear else None,
-            "max_centre_deviation_mm": max(e["max_centre_deviation_mm"] for e in entries),
+            "max_centre_deviation_mm": max((e["max_centre_deviation_mm"] for e in entries),
+                                           default=0.0),
             "smaller_tool_needed": [e["name"] for e in entries if e["smaller_tool_needed"]],
             "lead_tilt_violations": int(sum(e["lead_tilt_violations"] for e in entries)),
             "normal_angle_violations": int(sum(e["normal_angle_violations"] for e in entries)),
@@ -459,7 +401,9 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     Returns
     -------
     FinishResult
-        Every path of every passage, machining order.
+        Every path of every passage, machining order; a pass whose postures still
+        interfere or break a rule after the repair is cut into its clean pieces and
+        the points left out are listed in ``extra["cut_short"]`` (``pieces``).
     """
     if tool.shape != "ball":
         raise InputError("five-axis finishing needs a ball-end mill", field="tool",
@@ -480,18 +424,24 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                         for p in base if p.operation == op]
     if before is not None:
         before(ordered)
+    from cam.finishing.pieces import cut_short_entry, finish_runs  # builds on finish_path
+
     results: list[PathResult] = []
+    cut_short: list[dict[str, Any]] = []
     # the same path in the previous passage: its remedy step is tried first (proven
     # before it is used, so the result is the same as without it)
     hints: dict[str, StepHint | None] = {}
     for i, path in enumerate(ordered):
         key = path.name.split(".", 1)[1]
-        results.append(finish_path(path, tool, kins, scene, options, surfaces,
-                                   hints.get(key)))
-        hints[key] = results[-1].step_hint
+        pieces, lost = finish_runs(path, tool, kins, scene, options, surfaces,
+                                   hint=hints.get(key))
+        results += pieces
+        hints[key] = pieces[0].step_hint if len(pieces) == 1 and not lost.size else None
+        if lost.size:
+            cut_short.append(cut_short_entry(path, lost))
         if progress is not None:
             progress(i + 1, len(ordered), path.name)
-    return FinishResult(results, tool, options, scene_source)
+    return FinishResult(results, tool, options, scene_source, extra={"cut_short": cut_short})
 
 
 def passes_of(results: Sequence[PathResult]) -> list[tuple[Array, Array]]:

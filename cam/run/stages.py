@@ -157,18 +157,54 @@ def apt_files(ctx: Context) -> list[tuple[str, str, str]]:
     return out
 
 
+def known_collisions(finish: dict[str, Any]) -> list[str]:
+    """What finish.json says still collides in the finish programs, one line each.
+
+    Postures and moves of a path (``collisions``, ``motion_collisions``: the design,
+    the in-process stock or the machine), links between passes (``link_collisions``)
+    and moves the machine model hits (``machine_model``); empty when none.
+    """
+    found = [f"path {e['name']}: {e['collisions']} postures, {e['motion_collisions']} "
+             "moves" for e in finish.get("paths", [])
+             if e.get("collisions") or e.get("motion_collisions")]
+    for op, entry in finish.get("operations", {}).items():
+        if entry.get("link_collisions"):
+            found.append(f"operation {op}: {entry['link_collisions']} link moves")
+    machine = finish.get("machine_model") or {}
+    for op, entry in (machine.get("operations") or {}).items():
+        if entry.get("machine_collision_moves"):
+            found.append(f"operation {op}: {entry['machine_collision_moves']} moves "
+                         "hit the machine")
+    return found
+
+
 def post_stage(ctx: Context) -> None:
-    """Every APT file to one NC program (machine's dialect or the chosen one), post.json."""
+    """Every APT file to one NC program (machine's dialect or the chosen one), post.json.
+
+    A finish program with a known collision (``known_collisions``) is never posted:
+    ``InputError`` naming the paths, and nothing is written.
+    """
     from postproc.command import post_text
     from postproc.machine import load_machine
     from postproc.nc_reader import read_nc
     from postproc.posts import get_post
 
+    files = apt_files(ctx)  # names the first stage whose outputs are missing
+    found = known_collisions(read_json(ctx, "finish/finish.json", "finish"))
+    if found:
+        shown = "; ".join(found[:10]) + (f"; and {len(found) - 10} more"
+                                         if len(found) > 10 else "")
+        raise InputError(f"the finish programs still collide, not posted: {shown}",
+                         file=ctx.out / "finish" / "finish.json",
+                         field="collisions",
+                         accepted="finish.json with 0 collisions, motion, link and machine "
+                                  "collisions (finishing leaves out what it cannot free: "
+                                  "cut_short)")
     machine = load_machine(ctx.machine)
     dialect = get_post(ctx.settings.post or machine.post)
     programs = []
     with staged_directory(ctx.out / "nc") as stage:
-        for operation, apt, tool in apt_files(ctx):
+        for operation, apt, tool in files:
             text = post_text(ctx.out / apt, ctx.machine, post=dialect.name,
                              tcp=ctx.settings.tcp, post_options=ctx.settings.post_options)
             name = f"{Path(apt).stem}.{dialect.extension}"

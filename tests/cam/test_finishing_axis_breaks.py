@@ -99,7 +99,8 @@ def _flip_pass() -> SimpleNamespace:
     path = SimpleNamespace(name="p0.hub.01", passage=0, operation="hub", normal=normal,
                            away=normal)
     breaks = axis_breaks(centre, axis, math.radians(FinishOptions().max_axis_turn_deg_per_mm))
-    return SimpleNamespace(path=path, tip=tip, axis=axis, joints_after=joints, breaks=breaks)
+    return SimpleNamespace(path=path, tip=tip, axis=axis, joints_after=joints, breaks=breaks,
+                           piece_of=None)
 
 
 def _plate() -> CollisionScene:

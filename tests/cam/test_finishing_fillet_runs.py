@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from cam.finishing import fillet_plan
-from cam.finishing.fillet_plan import cut_short_entry, finish_runs
+from cam.finishing import pieces as pieces_mod
 from cam.finishing.paths import CutterPath
+from cam.finishing.pieces import cut_short_entry, finish_runs
 
 
 def _path(n: int) -> CutterPath:
@@ -47,7 +47,7 @@ def _stand_in(blocked: set[float], calls: list[list[float]]) -> Any:
 def _run(monkeypatch: pytest.MonkeyPatch, n: int, blocked: set[float],
          accept: Any = None) -> tuple[list[Any], np.ndarray, list[list[float]]]:
     calls: list[list[float]] = []
-    monkeypatch.setattr(fillet_plan, "finish_path", _stand_in(blocked, calls))
+    monkeypatch.setattr(pieces_mod, "finish_path", _stand_in(blocked, calls))
     pieces, lost = finish_runs(_path(n), None, None, None, None, None,  # type: ignore[arg-type]
                                accept=accept)
     return pieces, lost, calls
@@ -165,3 +165,38 @@ def test_the_splitter_leading_edge_fillet_is_covered() -> None:
         + np.sin(angle)[..., None] * section.e2[:, None, :])
     left = material_left(grid.reshape(-1, 3), centres, tool.radius)
     assert left.max() <= scallop, float(left.max())
+
+
+def _stand_in_by_call(blocked: list[set[float]], calls: list[list[float]]) -> Any:
+    """``finish_path`` whose k-th call's postures at the X positions ``blocked[k]``
+    interfere (the last set for later calls): a piece finished again may offend
+    where the whole pass's plan did not."""
+    def finish(path: CutterPath, *_: Any, **__: Any) -> Any:
+        x = path.centre[:, 0].tolist()
+        calls.append(x)
+        now = blocked[min(len(calls), len(blocked)) - 1]
+        bad = np.array([i for i, v in enumerate(x) if v in now], dtype=np.intp)
+        return SimpleNamespace(path=path, trimmed=0, rule_points=np.zeros(0, dtype=np.intp),
+                               interference=SimpleNamespace(interfering_points=bad),
+                               axis=path.reference_axis, piece_of=None)
+    return finish
+
+
+def test_a_piece_that_offends_again_is_cut_again(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Blocked 2, 8, 12 of 14 in the whole pass; finished again, the run 3-7 offends at
+    5: it is cut there once more and only its clean runs are kept (issue 28: no
+    piece is written with a known collision)."""
+    calls: list[list[float]] = []
+    monkeypatch.setattr(pieces_mod, "finish_path",
+                        _stand_in_by_call([{2.0, 8.0, 12.0}, {5.0}], calls))
+    pieces, lost = finish_runs(_path(14), None, None, None, None, None)  # type: ignore[arg-type]
+    runs = [p.path.centre[:, 0].astype(int).tolist() for p in pieces]
+    assert runs == [[0, 1], [3, 4], [6, 7], [9, 10, 11]]
+    assert lost.tolist() == [2, 5, 8, 12, 13]
+    assert {p.piece_of for p in pieces} == {"p0.fillet.splitter0.suction.01.le"}
+
+
+def test_a_pass_with_nothing_clean_is_dropped(monkeypatch: pytest.MonkeyPatch) -> None:
+    pieces, lost, _ = _run(monkeypatch, 5, {0.0, 1.0, 2.0, 3.0, 4.0})
+    assert pieces == [] and lost.tolist() == [0, 1, 2, 3, 4]
+    assert cut_short_entry(_path(5), lost)["dropped"]
