@@ -26,8 +26,11 @@ The departure starts at the pass's last posture and goes ``departure`` mm (or th
 shortest of ``DEPARTURE_SCALES`` times it for which the grown cutter is clear) along
 the tool axis, along the contact normal ``e`` away from the surfaces the ball
 touches, or half-way between; it is a feed move checked like a cut. The approach
-mirrors it at the next pass's first posture. Where no such point is clear the pass is
-left, as before, along its axis out to the clearance cylinder at feed.
+mirrors it at the next pass's first posture. Where no such point is clear (the
+posture's own shank or holder collides) the departure is the shortest candidate whose
+moves out, to it and then along the axis to the clearance cylinder, keep the cutter
+out of the part as a cut does; where none does, the pass is left, as before, along its
+axis out to the clearance cylinder at feed, unchecked.
 """
 
 from __future__ import annotations
@@ -240,6 +243,32 @@ class Linker:
             point = flat[index]
             if self._feed_free(np.stack([tip, point]), np.stack([axis, axis])):
                 return point, float(lengths[index // len(directions)])
+        return self._cutter_escape(tip, axis, flat, lengths, len(directions))
+
+    def _cutter_escape(self, tip: Array, axis: Array, points: Array, lengths: Array,
+                       per_length: int) -> tuple[Array, float] | None:
+        """The shortest departure point ``escape`` found no clear one for whose moves
+        out (to it, then along the axis to the clearance cylinder) the cutter makes as a
+        cut: the fallback when the posture's own shank or holder is not clear.
+
+        From a posture whose shank or holder already collides no departure is clear;
+        the straight move along the axis could then drag the cutter through surfaces
+        overhanging the ball. Shank and holder are not checked here: the posture is
+        reported by the planner as a collision and no move from it is clear of them.
+        None when every candidate's cutter meets the part (a posture whose own cutter
+        is in the part: the pass is then left along its axis, unchecked, as before).
+        """
+        r = self.rules
+        out = retract_length(points, np.tile(axis, (len(points), 1)), r.envelope, r.longest)
+        for index, point in enumerate(points):
+            far = point + out[index] * axis
+            moves = np.stack([tip, point, far]) if out[index] > 0 else np.stack([tip, point])
+            report = self.scene.check_motion(
+                r.tool, moves, np.tile(axis, (len(moves), 1)), max_step_mm=r.step_mm,
+                max_step_deg=math.degrees(r.step_rad), parts=("cutter",),
+                cutter_allowance=r.cutter_allowance, clearance=False)
+            if not bool(report.blocked().any()):
+                return point, float(lengths[index // per_length])
         return None
 
     def feed_link(self, a: PassEnds, b: PassEnds) -> bool:

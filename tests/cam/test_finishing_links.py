@@ -162,3 +162,52 @@ def test_adjacent_zigzag_passes_step_over_at_feed() -> None:
     _, _, links = blocked.join("plate", passes, tool_number=1,
                                cutter=Cutter(4.0, 2.0, 15.0), spindle_rpm=None)
     assert links[0]["kind"] != "feed"
+
+
+def _box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> trimesh.Trimesh:
+    box = trimesh.creation.box(extents=np.subtract(hi, lo))
+    box.apply_translation(0.5 * np.add(lo, hi))
+    return box
+
+
+def test_a_pass_end_whose_holder_collides_is_left_without_gouging_the_overhang() -> None:
+    """Issue 28: the ball on a floor under an overhang whose edge lies 0.5 mm inside the
+    ball's cylinder, the holder in a slab (no departure keeps it clear). Straight up the
+    axis the ball would cut the overhang (the splitter's gouges in verification); the
+    departure is the shortest one whose moves out keep the cutter out of the part."""
+    tool_top = 30.0 + TOOL.flute_length
+    scene = CollisionScene({
+        "hub": _box((20.0, -20.0, 20.0), (60.0, 20.0, 30.0)),  # floor, top z = 30
+        "blade": _box((20.0, -10.0, tool_top + 1.0), (39.5, 10.0, tool_top + 5.0)),
+        "shroud": _box((0.0, -40.0, 130.0), (80.0, 40.0, 135.0)),  # the holder's
+    })
+    linker = _linker(scene)
+    linker.rules = replace(linker.rules, envelope=Envelope(60.0, 50.0))
+    tip = np.array([40.0, 0.0, 30.0])
+    up = np.array([0.0, 0.0, 1.0])
+    away = np.array([1.0, 0.0, 0.0])  # from the overhang's edge
+    r = linker.rules
+
+    def cutter_blocked(moves: np.ndarray) -> bool:
+        report = scene.check_motion(TOOL, moves, np.tile(up, (len(moves), 1)),
+                                    max_step_mm=r.step_mm, max_step_deg=0.5,
+                                    parts=("cutter",), cutter_allowance=r.cutter_allowance,
+                                    clearance=False)
+        return bool(report.blocked().any())
+
+    # the posture: the cutter clear as a cut, the holder not; straight up gouges
+    assert not cutter_blocked(np.stack([tip, tip]))
+    assert scene.check_postures(TOOL, tip[None], up[None], parts=("holder",)).collides[0]
+    assert cutter_blocked(np.stack([tip, tip + 20.0 * up]))
+    found = linker.escape(tip, up, away)
+    assert found is not None, "no departure keeps the cutter out of the part"
+    point, length = found
+    assert length == pytest.approx(r.departure)
+    np.testing.assert_allclose(point, tip + r.departure * away, atol=1e-12)
+    assert not cutter_blocked(np.stack([tip, point, point + 20.0 * up]))
+    # with the overhang out of the way the axis is the first candidate again
+    scene = CollisionScene({"hub": scene.meshes["hub"], "shroud": scene.meshes["shroud"]})
+    linker = Linker(scene, KINS, linker.rules)
+    found = linker.escape(tip, up, away)
+    assert found is not None
+    np.testing.assert_allclose(found[0], tip + r.departure * up, atol=1e-12)
