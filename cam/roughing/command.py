@@ -53,7 +53,7 @@ from cam.roughing.stock import Blank
 from cam.roughing.stockmap import ZMap
 from cam.roughing.timing import block_times
 from cam.roughing.tool_size import check_tool_size
-from cam.roughing.umr import UMR, partition_passage
+from cam.roughing.umr import UMR, Admissible, partition_passage
 from cam.tools import Tool, resolve_tool
 from geometry.figures import minimum_passage_width
 from geometry.spec import load_spec
@@ -138,7 +138,8 @@ def design_meshes(surfaces: ImpellerSurfaces, options: RoughOptions
 
 
 def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
-                  progress: Any = None, compare: bool = False) -> RoughResult:
+                  progress: Any = None, compare: bool = False,
+                  admissible: Admissible | None = None) -> RoughResult:
     """UMR partition and 3+2 segments of every passage, plus (``compare``) the
     simultaneous 5-axis baseline of the paper's Table 1 (else ``baseline`` is empty).
 
@@ -160,6 +161,9 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
         ``progress(done, total, name)`` after each UMR.
     compare : bool
         Also plan the paper's simultaneous five-axis baseline.
+    admissible : callable, optional
+        The machine's check of a UMR orientation (``machine_pose.orientation_check``;
+        ``umr.partition_passage`` keeps to orientations it admits).
 
     Returns
     -------
@@ -200,7 +204,7 @@ def plan_roughing(surfaces: ImpellerSurfaces, tool: Tool, options: RoughOptions,
         lane_umrs = partition_passage(grid, lane.suction, triangles, rho,
                                       reach_tolerance=options.reach_tolerance_mm,
                                       min_reach=options.min_reach, first_index=len(umrs),
-                                      lane=lane_index)
+                                      lane=lane_index, admissible=admissible)
         umrs += lane_umrs
         for umr in lane_umrs:
             umr.frame.keep_shank_clear(tool, eta + options.scallop_mm)
@@ -375,7 +379,15 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
             if bar is not None:
                 bar.update(task, completed=done, total=total, description=name)
 
-        result = plan_roughing(surfaces, the_tool, opts, report, compare=compare)
+        admissible = None
+        if check:
+            from cam.roughing.machine_pose import orientation_check
+
+            admissible = orientation_check(the_machine, kins, the_tool, spec,
+                                           surfaces.spec.pitch,
+                                           opts.passages or surfaces.spec.blades)
+        result = plan_roughing(surfaces, the_tool, opts, report, compare=compare,
+                               admissible=admissible)
         paths = toolpaths(result)
         plans = {"3axis": result.segments}
         if compare:

@@ -15,8 +15,9 @@ Each block the verifier would reject is described with its UMR visit (the post's
 ``OPERATION`` section of the offending block), the two components, the distance and
 the clearance: with ``refuse`` the plan is refused (``InputError``, exit 2), else
 they go into rough.json's ``machine`` entry (``machine_collisions``, ``notes``) next
-to the smallest clearance and where it is. (The chain reports: a UMR orientation is
-dictated by the passage, and no other orientation is searched yet.)
+to the smallest clearance and where it is. The orientations themselves were chosen
+with the machine's check of their cutting poses (``machine_pose``,
+``umr.partition_passage``); this check adds the links and index moves.
 """
 
 from __future__ import annotations

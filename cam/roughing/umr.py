@@ -23,6 +23,7 @@ Partition (our implementation of the flowchart of Fig. 4):
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -32,6 +33,7 @@ from cam.roughing.dropcutter import DropCutter, frame_to_z
 from cam.roughing.passage import PassageGrid
 from cam.tools import Tool
 from geometry.surfaces import BladeSurface
+from impeller_cam.errors import InputError
 
 __all__ = ["UMR", "FixedAxisFrame", "partition_passage", "reached_floor"]
 
@@ -42,6 +44,13 @@ LOOK_AHEAD = (0.0, 0.1, 0.2)
 #: flutes) 0.6-0.75 mm from the blades near their tips in the deepest layers, in
 #: that stock (99 shank events, up to 3.2 mm deep).
 SHANK_MARGIN = 0.25
+#: Turns (deg) of the candidate axes towards the impeller axis (+Z) tried when no
+#: candidate's orientation keeps the machine clear (``partition_passage``).
+TOWARDS_Z_DEG = (5.0, 10.0, 15.0, 20.0, 30.0, 40.0)
+
+#: ``admissible(axis, centres) -> (clear, why)``: the machine keeps clear of an
+#: orientation at those ball-centre targets (``cam.roughing.machine_pose``).
+Admissible = Callable[[NDArray[np.float64], NDArray[np.float64]], tuple[bool, str]]
 
 
 class FixedAxisFrame:
@@ -167,11 +176,24 @@ def _extent(share: NDArray[np.float64], start: int, min_reach: float) -> int:
     return stop
 
 
+def towards_z(axis: NDArray[np.float64], degrees: float) -> NDArray[np.float64]:
+    """The unit ``axis`` (3,) turned ``degrees`` towards +Z (at most onto it)."""
+    a = np.asarray(axis, dtype=np.float64) / np.linalg.norm(axis)
+    tilt = float(np.arccos(np.clip(a[2], -1.0, 1.0)))
+    turn = min(np.radians(degrees), tilt)
+    side = a - a[2] * np.array([0.0, 0.0, 1.0])
+    norm = float(np.linalg.norm(side))
+    if norm < 1e-12:
+        return a
+    new_tilt = tilt - turn
+    return np.asarray(np.sin(new_tilt) * side / norm + np.array([0.0, 0.0, np.cos(new_tilt)]))
+
+
 def partition_passage(grid: PassageGrid, suction_blade: BladeSurface,
                       triangles: NDArray[np.float64], rho: float, *,
                       reach_tolerance: float, min_reach: float,
                       look_ahead: tuple[float, ...] = LOOK_AHEAD, first_index: int = 0,
-                      lane: int = 0) -> list[UMR]:
+                      lane: int = 0, admissible: Admissible | None = None) -> list[UMR]:
     """UMRs of passage 0 from leading to trailing edge (see module docstring).
 
     Parameters
@@ -197,6 +219,17 @@ def partition_passage(grid: PassageGrid, suction_blade: BladeSurface,
         wins (ties: the earlier candidate).
     first_index, lane : int
         Index of the first UMR returned, and the lane (``passage_lanes``) they cut.
+    admissible : callable, optional
+        ``admissible(axis, centres)``: whether the machine keeps clear of the
+        orientation at the region's ball-centre targets ``(k, 3)``
+        (``machine_pose.region_targets``). Candidates are tried best first; when
+        none is admissible, the candidates turned ``TOWARDS_Z_DEG`` towards the
+        impeller axis are tried (the reach check decides what they cover).
+
+    Raises
+    ------
+    InputError
+        No candidate orientation of a region keeps the machine clear.
     """
     m = len(grid.u)
     area = grid.floor_area
@@ -209,18 +242,23 @@ def partition_passage(grid: PassageGrid, suction_blade: BladeSurface,
         for ahead in look_ahead:
             i = min(m - 1, start + int(round(ahead * (m - 1))))
             candidates += [grid.ruling[0, i], grid.ruling[mid, i]]
-        best: tuple[int, float] | None = None
-        chosen = None
-        for axis in candidates:
-            frame = FixedAxisFrame(axis, triangles, rho)
-            reached = reached_floor(frame, grid, reach_tolerance)
-            share = (reached * area).sum(axis=0) / np.maximum(area.sum(axis=0), 1e-300)
-            stop = _extent(share, start, min_reach)
-            score = (stop, float(share[start]))
-            if best is None or score > best:
-                best, chosen = score, (frame, reached)
-        assert best is not None and chosen is not None
-        frame, reached = chosen
+        chosen = _choose(candidates, grid, triangles, rho, reach_tolerance, min_reach,
+                         start, admissible)
+        if chosen is None:
+            assert admissible is not None
+            turned = [towards_z(a, t) for t in TOWARDS_Z_DEG for a in candidates]
+            chosen = _choose(turned, grid, triangles, rho, reach_tolerance, min_reach,
+                             start, admissible)
+        if chosen is None:
+            assert admissible is not None
+            _, why = admissible(candidates[0], _targets(grid, start, start + 1))
+            raise InputError(
+                f"no orientation of the UMR starting at station {start} (lane {lane}, "
+                f"u = {grid.u[start]:.3f}) keeps the machine clear: {why}",
+                field="machine", value=f"{len(candidates) * (1 + len(TOWARDS_Z_DEG))} "
+                "orientations tried", accepted="a machine that reaches the passage with "
+                "every component clear (another machine, a riser, a longer tool)")
+        best, frame, reached = chosen
         stop = max(best[0], start + 1)  # an axis that serves no station still takes one
         covered = float((reached[:, start:stop] * area[:, start:stop]).sum())
         prev = umrs[-1] if umrs else None
@@ -237,3 +275,31 @@ def partition_passage(grid: PassageGrid, suction_blade: BladeSurface,
                         lane=lane))
         start = stop
     return umrs
+
+
+def _targets(grid: PassageGrid, start: int, stop: int) -> NDArray[np.float64]:
+    from cam.roughing.machine_pose import region_targets
+
+    return region_targets(grid.centres, start, stop)
+
+
+def _choose(candidates: list[NDArray[np.float64]], grid: PassageGrid,
+            triangles: NDArray[np.float64], rho: float, reach_tolerance: float,
+            min_reach: float, start: int, admissible: Admissible | None
+            ) -> tuple[tuple[int, float], FixedAxisFrame, NDArray[np.bool_]] | None:
+    """The candidate whose region reaches furthest (ties: the earlier) among those
+    ``admissible`` over that region; its score, frame and reached targets."""
+    area = grid.floor_area
+    scored = []
+    for order, axis in enumerate(candidates):
+        frame = FixedAxisFrame(axis, triangles, rho)
+        reached = reached_floor(frame, grid, reach_tolerance)
+        share = (reached * area).sum(axis=0) / np.maximum(area.sum(axis=0), 1e-300)
+        stop = _extent(share, start, min_reach)
+        scored.append(((stop, float(share[start])), -order, frame, reached))
+    scored.sort(key=lambda item: (item[0], item[1]), reverse=True)
+    for score, _, frame, reached in scored:
+        if admissible is None or admissible(
+                frame.axis, _targets(grid, start, max(score[0], start + 1)))[0]:
+            return score, frame, reached
+    return None
