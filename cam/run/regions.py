@@ -15,7 +15,16 @@ samples of a blade side or edge beyond the shroud envelope (``shroud_offset`` > 
 whose closest design point lies on a tip's edge (the skin's corner, which on a
 leaning blade reaches slightly inside the envelope: 220 of nine_blade's suction-side
 samples, up to 0.29 mm inside it and up to 0.55 mm from the design) are the skin over
-the tips; so are those radially beyond the blades' largest radius (``blade_radius``):
+the tips; so are those above the blades' highest point (``blade_top``: the blank's
+flat inlet face is turned to it plus the stock allowance, ``geometry.blank``) and
+beside the blades, over the passage (their foot on that height farther from the
+design than the limit): before the shroud contour's inlet end the envelope test does
+not see that skin (the splitter fixture, whose leading edge is a radial line at the
+inlet: 149 samples whose closest face is a main blade's leading edge lay up to 2.0 mm
+above its apex, z 52.80 mm, and up to 5.4 mm beside it, and judged the edge at 5.96
+mm; the 49,000 samples of nine_blade's milled stock above its leading edges' apex all
+lie over the edge, feet within 0.46 mm of it); and
+those radially beyond the blades' largest radius (``blade_radius``):
 the blank's outer diameter over the blades is turned to that radius plus the stock
 allowance (``geometry.blank``), and a lathe finishes it. Beyond the shroud contour's
 outlet end the envelope test does not see that skin: on nine_blade 3,410 of the
@@ -47,7 +56,7 @@ from cam.verify.deviation import Deviation
 from cam.verify.stock import default_threads
 
 __all__ = ["ACCEPTANCE_ROLES", "BLADE_ROLES", "LATHE_ROLES", "SPLITTER", "LabelledDesign",
-           "blade_radius", "closest_roles", "face_groups",
+           "blade_radius", "blade_top", "closest_roles", "face_groups",
            "near_faces", "on_tip_edge", "passage_position", "region_summary", "role_table",
            "shroud_offset"]
 
@@ -275,9 +284,23 @@ def blade_radius(design: LabelledDesign) -> float:
     return float(np.hypot(faces[..., 0], faces[..., 1]).max())
 
 
+def blade_top(design: LabelledDesign) -> float:
+    """Highest z of the blades' faces (sides, edges, tips), mm; ``inf`` without blade
+    triangles.
+
+    The blank's inlet face is turned to it (plus the stock allowance, by the blank;
+    finished by a lathe): stock of a blade face above it is lathe work.
+    """
+    faces = design.triangles[np.isin(design.roles, (*TIP_SIDED, "shroud"))]
+    if not len(faces):
+        return math.inf
+    return float(faces[..., 2].max())
+
+
 def face_groups(design: LabelledDesign, points: NDArray[np.float64],
                 role: NDArray[np.str_], foot_distance: NDArray[np.float64],
-                near_fillet: float, splitter: NDArray[np.bool_] | None = None
+                near_fillet: float, splitter: NDArray[np.bool_] | None = None,
+                skin_gap: float = math.inf
                 ) -> tuple[dict[str, NDArray[np.bool_]], dict[str, NDArray[np.bool_]]]:
     """Split stock samples into milled face groups and lathe face groups.
 
@@ -295,6 +318,13 @@ def face_groups(design: LabelledDesign, points: NDArray[np.float64],
     splitter : (n,) bool, optional
         Whether each sample's closest design face is a splitter's
         (``LabelledDesign.face_splitter``); default none.
+    skin_gap : float
+        A blade-side or edge sample above ``blade_top`` whose foot on the plane
+        z = ``blade_top`` lies farther than this from the design is the blank's inlet
+        face over the passage (lathe skin), mm; ``region_summary`` passes its limit
+        (such a sample is farther than its foot from the design, so no sample within
+        the limit moves; the milled stock on a leading edge's apex, over the edge,
+        stays judged). Default: no such test.
 
     Returns
     -------
@@ -305,9 +335,11 @@ def face_groups(design: LabelledDesign, points: NDArray[np.float64],
         ``hub_outside_blades`` (the axisymmetric inlet and outlet of the hub) and
         ``<role>_beyond_shroud`` (the blank's skin over the tips: samples of a blade
         side or edge beyond the shroud envelope, whose closest design point is on a
-        tip's edge, or radially beyond ``blade_radius``). The groups of a blade's
-        own faces (``BLADE_ROLES``) hold the main blades' samples; the splitters' are
-        the same names after ``SPLITTER``. Only groups with samples are listed.
+        tip's edge, above ``blade_top`` beside the blades (``skin_gap``) or radially
+        beyond ``blade_radius``). The
+        groups of a blade's own faces (``BLADE_ROLES``) hold the main blades' samples;
+        the splitters' are the same names after ``SPLITTER``. Only groups with samples
+        are listed.
     """
     triangles, labels = design.triangles, design.roles
     near = np.zeros(len(points), dtype=bool)
@@ -323,6 +355,14 @@ def face_groups(design: LabelledDesign, points: NDArray[np.float64],
     beyond[blade] = shroud_offset(points[blade], shroud_contour, hub_contour) > 0.0
     beyond[blade] |= on_tip_edge(triangles, labels, points[blade], foot_distance[blade])
     beyond[blade] |= np.hypot(points[blade, 0], points[blade, 1]) > blade_radius(design)
+    top = blade_top(design)
+    above = np.flatnonzero(blade & (points[:, 2] > top))
+    if len(above) and math.isfinite(skin_gap):
+        # over the passage, not over the edge: the foot of the sample on the plane of
+        # the blades' top lies farther than ``skin_gap`` from the design
+        foot = points[above].copy()
+        foot[:, 2] = top
+        beyond[above] |= np.abs(design.distance.closest(foot)[0]) > skin_gap
     on_splitter = np.zeros(len(points), dtype=bool) if splitter is None else splitter
     milled: dict[str, NDArray[np.bool_]] = {}
     lathe: dict[str, NDArray[np.bool_]] = {}
@@ -404,9 +444,9 @@ def region_summary(design: LabelledDesign, stock: str | Path | Deviation, allowa
     assert stock.faces is not None
     points, signed, moves = stock.points, stock.distance, stock.moves
     role = design.face_roles[stock.faces]
-    milled, lathe = face_groups(design, points, role, np.abs(signed), near_fillet,
-                                design.face_splitter[stock.faces])
     limit = allowance + tolerance
+    milled, lathe = face_groups(design, points, role, np.abs(signed), near_fillet,
+                                design.face_splitter[stock.faces], skin_gap=limit)
     lathe_limit = lathe_allowance + tolerance
     touched = moves >= 0
     acceptance = {name: role_table(signed[sel], limit, touched[sel])

@@ -189,3 +189,43 @@ def test_points_of_each_blade_are_owned_by_it(fixture: str) -> None:
             for points in (on, out):
                 assert np.all(splitter_points(surfaces, points) == expected)
     assert bool(surfaces.splitters) == (fixture == "splitter")
+
+
+def test_skin_above_the_blades_highest_point_is_lathe_work() -> None:
+    """A leading edge that is a radial line at the inlet (the splitter fixture's) has
+    the blank's flat inlet face over it (turned to the blades' highest point plus the
+    allowance), before the shroud contour's inlet end where the envelope test does not
+    see it: samples whose closest face is the edge face but which lie above the blades'
+    highest point (here z 10.5 mm) and beside the blades (their foot at that height
+    farther than the limit from the design) are ``leading_edge_beyond_shroud``; the
+    milled stock on the edge's apex (above it, over the edge) stays judged."""
+    from cam.run.regions import blade_top, region_summary
+    from cam.verify.deviation import DesignDistance, Deviation
+
+    design = _flat_design()
+    hub = np.array([[0.0, 0.0], [0.0, 40.0]])
+    shroud = np.array([[10.0, 30.0], [2.0, 40.0]])  # starts at the edge's tip
+    edges_h = np.array([[10.0, 10.0], [0.0, 40.0]])
+    edges_s = np.array([[10.0, 30.0], [2.0, 40.0]])
+    design.meridional = (hub, shroud, edges_h, edges_s)  # type: ignore[attr-defined]
+    # the edge face: apex z = 10.5 from r = 10 to r = 30
+    edge = np.array([point(10.5, 10.0), point(10.5, 30.0), point(10.0, 20.0)])
+    design.triangles = edge[None]  # type: ignore[attr-defined]
+    design.distance = DesignDistance(edge, np.array([[0, 1, 2]]))  # type: ignore[attr-defined]
+    design.roles = np.array(["leading_edge"])  # type: ignore[attr-defined]
+    design.face_roles = np.array(["leading_edge"])  # type: ignore[attr-defined]
+    assert blade_top(design) == pytest.approx(10.5)  # type: ignore[arg-type]
+    points = np.array([point(10.3, 20.0), point(12.4, 20.0, 0.9), point(11.0, 15.0, 0.5),
+                       point(10.7, 20.0)])  # the last over the apex
+    # the envelope test does not see the skin: inside, beyond the contour's inlet end
+    assert np.all(shroud_offset(points[1:], shroud, hub) < 0.0)
+    moves = np.array([3, -1, 4, 5])
+    signed = np.array([0.3, 4.5, 2.0, 0.2])
+    found = region_summary(design, Deviation(points, signed, moves,  # type: ignore[arg-type]
+                                             np.zeros(4, dtype=np.int64)),
+                           0.2, 0.05, 2.0, lathe_allowance=2.0)
+    assert found["acceptance"]["leading_edge"]["samples"] == 2
+    assert found["failed"] == ["leading_edge"]  # 0.3 mm on the face itself > 0.25
+    assert found["lathe"]["leading_edge_beyond_shroud"]["samples"] == 2
+    # without blade triangles nothing is above: the top is infinite
+    assert blade_top(_flat_design()) == np.inf  # type: ignore[arg-type]
