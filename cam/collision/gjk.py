@@ -1,4 +1,4 @@
-"""Distance between a triangle and a revolved tool piece by GJK, in numba.
+"""Gilbert-Johnson-Keerthi distance between two convex shapes, and the tool pieces.
 
 A tool part mesh (``tool_mesh.revolve``) is the revolved meridian polygon with ``N``
 sections: ring vertices ``(R cos phi_j, R sin phi_j, z)``, ``phi_j = 2 pi j / N``,
@@ -10,54 +10,52 @@ triangle to the mesh solid is the smallest distance to a piece; for a triangle
 outside the solid it is the distance to the mesh surface, which is what fcl
 computes between the meshes.
 
-The triangle-piece distance is Gilbert-Johnson-Keerthi's (GJK) on the Minkowski
-difference ``T - P``: the support of a piece in a direction ``d`` is the ring
-vertex nearest ``d``'s azimuth on the better of its two rings (O(1)), the nearest
+``gjk_interval`` is the one GJK of the project (the tool's pieces against scene
+triangles here, the machine's convex pieces in ``cam.verify.machine_bounds``). It
+runs on the Minkowski difference ``A - B`` of two **shapes**, each a tuple ``(kind,
+points, lo, hi, params, rot, trans)`` placed by ``rot, trans`` whose support
+``shape_support`` gives: a point set (``POINTS``, the furthest of ``points[lo:hi]``),
+an exact cylinder (``CYLINDER``) or a revolved piece (``REVOLVED``: the ring vertex
+nearest the direction's azimuth on the better of its two rings, O(1)). The nearest
 point of a simplex to the origin is Ericson's (*Real-Time Collision Detection*
-5.1.5-5.1.6). Every iteration gives a **certified interval**: ``|v|`` (a point
-of the difference) is an upper bound, ``v . w / |v|`` (``w`` the support in
-``-v``: a separating plane) a lower bound. The iteration stops when they agree to
-``GJK_TOLERANCE``, when the lower bound reaches ``prune`` (the caller has a
-nearer piece already), or after ``GJK_ITERATIONS``; callers only rely on the
-interval.
+5.1.5-5.1.6). Every iteration gives a **certified interval**: ``|v|`` (a point of
+the difference) is an upper bound, ``v . w / |v|`` (``w`` the support in ``-v``: a
+separating plane) a lower bound. The iteration stops when they agree to the
+caller's tolerance (``GJK_TOLERANCE`` for the tool), when the lower bound reaches
+``prune`` (the caller has a nearer piece already, or a bound that certifies its
+query), when the upper bound falls to ``stop_below``, when it stalls, or after the
+caller's number of iterations; callers only rely on the interval.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["GJK_ITERATIONS", "GJK_TOLERANCE", "section_ring", "triangle_piece_distance"]
+__all__ = ["CYLINDER", "GJK_ITERATIONS", "GJK_TOLERANCE", "POINTS", "REVOLVED", "gjk_interval",
+           "section_ring", "shape_support", "triangle_piece_distance"]
 
 #: Width at which the GJK interval counts as converged, mm.
 GJK_TOLERANCE = 1e-9
 #: Largest number of GJK iterations (the interval is certified whatever the count).
 GJK_ITERATIONS = 64
 
+#: Shape kinds of ``shape_support``: the hull of ``points[lo:hi]`` (3 columns).
+POINTS = 0
+#: An exact cylinder: ``params`` centre (3), unit axis (3), radius, half-length, mm.
+CYLINDER = 1
+#: A revolved piece (hull of two N-gon rings about +Z, a vertex at angle 0):
+#: ``params[:4]`` ``r0, z0, r1, z1`` (circumradii and heights, mm), ``points[lo:hi]``
+#: the ``(N, 2)`` cos and sin of the section angles (``section_ring``).
+REVOLVED = 2
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _piece_support(
-    dx: float, dy: float, dz: float, r0: float, z0: float, r1: float, z1: float,
-    ring: NDArray[np.float64],
-) -> tuple[float, float, float]:  # pragma: no cover - compiled
-    """Vertex of the piece (hull of rings ``(r0, z0)``, ``(r1, z1)``) furthest along d.
-
-    ``ring`` (N, 2) holds ``cos, sin`` of the section angles ``2 pi j / N``."""
-    sections = ring.shape[0]
-    if dx == 0.0 and dy == 0.0:
-        j = 0
-    else:
-        j = int(round(math.atan2(dy, dx) * (sections / (2.0 * math.pi)))) % sections
-    c, s = ring[j, 0], ring[j, 1]
-    along = dx * c + dy * s
-    v0 = r0 * along + dz * z0
-    v1 = r1 * along + dz * z1
-    if v0 >= v1:
-        return r0 * c, r0 * s, z0
-    return r1 * c, r1 * s, z1
+#: ``rot``, ``trans`` of a shape given in the outer frame (no transform).
+_UNPLACED = np.zeros((0, 3))
+_NO_SHIFT = np.zeros(3)
 
 
 def section_ring(sections: int) -> NDArray[np.float64]:
@@ -67,16 +65,56 @@ def section_ring(sections: int) -> NDArray[np.float64]:
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _triangle_support(
-    dx: float, dy: float, dz: float, t: NDArray[np.float64]
-) -> tuple[float, float, float]:  # pragma: no cover - compiled
-    best = 0
-    value = dx * t[0, 0] + dy * t[0, 1] + dz * t[0, 2]
-    for k in range(1, 3):
-        v = dx * t[k, 0] + dy * t[k, 1] + dz * t[k, 2]
-        if v > value:
-            best, value = k, v
-    return t[best, 0], t[best, 1], t[best, 2]
+def shape_support(shape: Any, dx: float, dy: float, dz: float
+                  ) -> tuple[float, float, float]:  # pragma: no cover - compiled
+    """Point of a placed shape furthest along ``d`` (both in the outer frame), mm.
+
+    ``shape``: ``(kind, points, lo, hi, params, rot, trans)`` (module docstring):
+    ``points`` (m, 3) or the ring (N, 2) float64, ``lo, hi`` int, ``params`` 8
+    floats, ``rot`` (3, 3) and ``trans`` (3,) float64 placing the shape's frame (or
+    ``rot`` (0, 3): the shape is given in the outer frame, ``trans`` unused).
+    """
+    kind, points, lo, hi, c, rot, trans = shape
+    placed = rot.shape[0] == 3
+    lx, ly, lz = dx, dy, dz
+    if placed:
+        lx = rot[0, 0] * dx + rot[1, 0] * dy + rot[2, 0] * dz
+        ly = rot[0, 1] * dx + rot[1, 1] * dy + rot[2, 1] * dz
+        lz = rot[0, 2] * dx + rot[1, 2] * dy + rot[2, 2] * dz
+    if kind == REVOLVED:
+        sections = hi - lo
+        if lx == 0.0 and ly == 0.0:
+            j = lo
+        else:
+            j = lo + int(round(math.atan2(ly, lx) * (sections / (2.0 * math.pi)))) % sections
+        cs, sn = points[j, 0], points[j, 1]
+        along = lx * cs + ly * sn
+        if c[0] * along + lz * c[1] >= c[2] * along + lz * c[3]:
+            px, py, pz = c[0] * cs, c[0] * sn, c[1]
+        else:
+            px, py, pz = c[2] * cs, c[2] * sn, c[3]
+    elif kind == CYLINDER:
+        along = lx * c[3] + ly * c[4] + lz * c[5]
+        rx, ry, rz = lx - along * c[3], ly - along * c[4], lz - along * c[5]
+        norm = math.sqrt(rx * rx + ry * ry + rz * rz)
+        scale = c[6] / norm if norm > 0.0 else 0.0
+        h = c[7] if along >= 0.0 else -c[7]
+        px = c[0] + h * c[3] + scale * rx
+        py = c[1] + h * c[4] + scale * ry
+        pz = c[2] + h * c[5] + scale * rz
+    else:
+        best = lo
+        value = lx * points[lo, 0] + ly * points[lo, 1] + lz * points[lo, 2]
+        for m in range(lo + 1, hi):
+            v = lx * points[m, 0] + ly * points[m, 1] + lz * points[m, 2]
+            if v > value:
+                best, value = m, v
+        px, py, pz = points[best, 0], points[best, 1], points[best, 2]
+    if not placed:
+        return px, py, pz
+    return (rot[0, 0] * px + rot[0, 1] * py + rot[0, 2] * pz + trans[0],
+            rot[1, 0] * px + rot[1, 1] * py + rot[1, 2] * pz + trans[1],
+            rot[2, 0] * px + rot[2, 1] * py + rot[2, 2] * pz + trans[2])
 
 
 @numba.njit(cache=True, nogil=True)
@@ -211,6 +249,80 @@ def _reduce(simplex: NDArray[np.float64], count: int) -> tuple[NDArray[np.float6
     return point, kept
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def gjk_interval(a: Any, b: Any, direction: NDArray[np.float64], prune: float,
+                 stop_below: float, tolerance: float, iterations: int,
+                 simplex: NDArray[np.float64]) -> tuple[float, float]:  # pragma: no cover
+    """Certified interval ``(lower, upper)`` of the distance of two convex shapes, mm.
+
+    Parameters
+    ----------
+    a, b : tuple
+        The shapes (``shape_support``); GJK runs on ``A - B``.
+    direction : (3,) float64
+        A guess of the direction from B to A (any; zero: +x); a good one ends most
+        calls after one support. The last direction searched is written back.
+    prune : float
+        Stop as soon as the lower bound reaches this, mm (``upper`` may then be far
+        above ``lower``).
+    stop_below : float
+        Stop as soon as the upper bound is at or below this, mm (``-inf``: never).
+    tolerance : float
+        Stop when ``upper - lower`` is at most this, mm.
+    iterations : int
+        Largest number of iterations (the interval is certified whatever the count).
+    simplex : (4, 3) float64
+        Work space.
+
+    Returns
+    -------
+    lower, upper : float
+        ``0 <= lower <= distance <= upper`` (``0, 0``: the sets overlap).
+    """
+    dx, dy, dz = direction[0], direction[1], direction[2]
+    if dx == 0.0 and dy == 0.0 and dz == 0.0:
+        dx = 1.0
+    ax, ay, az = shape_support(a, -dx, -dy, -dz)
+    bx, by, bz = shape_support(b, dx, dy, dz)
+    # the guessed direction: one separating-plane bound, and the first simplex point
+    simplex[0, 0], simplex[0, 1], simplex[0, 2] = ax - bx, ay - by, az - bz
+    v = simplex[0]  # read before the simplex changes, then _reduce's point
+    lower = max((dx * v[0] + dy * v[1] + dz * v[2]) / math.sqrt(dx * dx + dy * dy + dz * dz),
+                0.0)
+    upper = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    if lower >= prune or upper <= stop_below:
+        if upper > 0.0:
+            direction[0], direction[1], direction[2] = v[0], v[1], v[2]
+        return lower, upper
+    count = 1
+    for _ in range(iterations):
+        vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
+        if vv <= 0.0:
+            return 0.0, 0.0
+        norm = math.sqrt(vv)  # |v| only decreases: the upper bound
+        direction[0], direction[1], direction[2] = v[0], v[1], v[2]
+        ax, ay, az = shape_support(a, -v[0], -v[1], -v[2])
+        bx, by, bz = shape_support(b, v[0], v[1], v[2])
+        wx, wy, wz = ax - bx, ay - by, az - bz
+        vw = v[0] * wx + v[1] * wy + v[2] * wz
+        if vw > 0.0:
+            lower = max(lower, vw / norm)
+        if lower >= prune or norm <= stop_below or norm - lower <= tolerance:
+            return lower, norm
+        # w already in the simplex: no progress possible
+        for k in range(count):
+            if simplex[k, 0] == wx and simplex[k, 1] == wy and simplex[k, 2] == wz:
+                return lower, norm
+        simplex[count, 0], simplex[count, 1], simplex[count, 2] = wx, wy, wz
+        count += 1
+        v, count = _reduce(simplex, count)
+        if count == 0:
+            return 0.0, 0.0
+        if v[0] * v[0] + v[1] * v[1] + v[2] * v[2] >= vv:
+            return lower, norm  # no decrease (rounding): stop with the interval
+    return lower, math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+
+
 @numba.njit(cache=True, nogil=True)
 def triangle_piece_distance(
     t: NDArray[np.float64],
@@ -251,41 +363,12 @@ def triangle_piece_distance(
     lower, upper : float
         ``0 <= lower <= distance <= upper`` (``0, 0``: the sets overlap).
     """
-    # the guessed direction: one separating-plane bound, and the first simplex point
-    v = np.empty(3)
-    if dx == 0.0 and dy == 0.0 and dz == 0.0:
-        dx = 1.0
-    ax, ay, az = _triangle_support(-dx, -dy, -dz, t)
-    bx, by, bz = _piece_support(dx, dy, dz, r0, z0, r1, z1, ring)
-    v[0], v[1], v[2] = ax - bx, ay - by, az - bz
-    lower = max((dx * v[0] + dy * v[1] + dz * v[2]) / math.sqrt(dx * dx + dy * dy + dz * dz),
-                0.0)
-    if lower >= prune:
-        return lower, math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
-    simplex[0] = v  # a point of the difference: the first simplex
-    count = 1
-    for _ in range(GJK_ITERATIONS):
-        vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
-        if vv <= 0.0:
-            return 0.0, 0.0
-        norm = math.sqrt(vv)
-        ax, ay, az = _triangle_support(-v[0], -v[1], -v[2], t)
-        bx, by, bz = _piece_support(v[0], v[1], v[2], r0, z0, r1, z1, ring)
-        wx, wy, wz = ax - bx, ay - by, az - bz
-        vw = v[0] * wx + v[1] * wy + v[2] * wz
-        if vw > 0.0:
-            lower = max(lower, vw / norm)
-        if lower >= prune or norm - lower <= GJK_TOLERANCE:
-            return lower, norm
-        # w already in the simplex: no progress possible
-        for k in range(count):
-            if simplex[k, 0] == wx and simplex[k, 1] == wy and simplex[k, 2] == wz:
-                return lower, norm
-        simplex[count, 0], simplex[count, 1], simplex[count, 2] = wx, wy, wz
-        count += 1
-        v, count = _reduce(simplex, count)
-        if count == 0:
-            return 0.0, 0.0
-        if v[0] * v[0] + v[1] * v[1] + v[2] * v[2] >= vv:
-            return lower, norm  # no decrease (rounding): stop with the interval
-    return lower, math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    direction = np.empty(3)
+    direction[0], direction[1], direction[2] = dx, dy, dz
+    unused = 0.0
+    return gjk_interval(
+        (POINTS, t, 0, 3, (unused, unused, unused, unused, unused, unused, unused, unused),
+         _UNPLACED, _NO_SHIFT),
+        (REVOLVED, ring, 0, ring.shape[0], (r0, z0, r1, z1, unused, unused, unused, unused),
+         _UNPLACED, _NO_SHIFT),
+        direction, prune, -math.inf, GJK_TOLERANCE, GJK_ITERATIONS, simplex)

@@ -20,8 +20,8 @@ certifies the row ends it):
    (``|delta centre| + radius * angle`` per row);
 3. per pair of convex pieces, Gilbert-Johnson-Keerthi on the two point sets, started
    from the direction the same piece pair ended with last time (consecutive poses are
-   close, so one support usually certifies), with the simplex reduction of
-   ``cam.collision.gjk``; every iteration's certificate is a valid bound. A bound is
+   close, so one support usually certifies): ``cam.collision.gjk.gjk_interval``, the
+   project's one GJK; every iteration's certificate is a valid bound. A bound is
    improved to ``ADVANCE_SLACK`` past what certifies the row, so that it carries.
 
 A pair is certified at a row when one of them reaches ``limit + GUARD``; then its
@@ -46,7 +46,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from cam.collision.gjk import _reduce
+from cam.collision.gjk import CYLINDER, POINTS, gjk_interval
 
 __all__ = ["ADVANCE_SLACK", "GUARD", "PackedSolids", "pack_solids", "pair_bounds",
            "stack_poses"]
@@ -178,90 +178,14 @@ def stack_poses(poses: dict[str, Any], groups: tuple[str, ...]) -> tuple[Array, 
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _support(points: Array, piece_start: IntArray, cylinder: Array, k: int, rot: Array,
-             trans: Array, dx: float, dy: float, dz: float) -> tuple[float, float, float]:
-    """Point of piece ``k`` furthest along d (machine frame), placed by ``rot``,
-    ``trans``: an exact cylinder's, else the furthest of its points."""
-    # pragma: no cover - compiled
-    lx = rot[0, 0] * dx + rot[1, 0] * dy + rot[2, 0] * dz
-    ly = rot[0, 1] * dx + rot[1, 1] * dy + rot[2, 1] * dz
-    lz = rot[0, 2] * dx + rot[1, 2] * dy + rot[2, 2] * dz
+def _piece(points: Array, piece_start: IntArray, cylinder: Array, k: int, rot: Array,
+           trans: Array) -> Any:  # pragma: no cover - compiled
+    """Piece ``k`` placed by ``rot``, ``trans`` as a ``gjk.shape_support`` shape: an
+    exact cylinder, else the hull of its points."""
     c = cylinder[k]
-    if c[6] >= 0.0:
-        along = lx * c[3] + ly * c[4] + lz * c[5]
-        rx, ry, rz = lx - along * c[3], ly - along * c[4], lz - along * c[5]
-        norm = math.sqrt(rx * rx + ry * ry + rz * rz)
-        scale = c[6] / norm if norm > 0.0 else 0.0
-        h = c[7] if along >= 0.0 else -c[7]
-        px = c[0] + h * c[3] + scale * rx
-        py = c[1] + h * c[4] + scale * ry
-        pz = c[2] + h * c[5] + scale * rz
-    else:
-        lo, hi = piece_start[k], piece_start[k + 1]
-        best = lo
-        value = lx * points[lo, 0] + ly * points[lo, 1] + lz * points[lo, 2]
-        for m in range(lo + 1, hi):
-            v = lx * points[m, 0] + ly * points[m, 1] + lz * points[m, 2]
-            if v > value:
-                best, value = m, v
-        px, py, pz = points[best, 0], points[best, 1], points[best, 2]
-    return (rot[0, 0] * px + rot[0, 1] * py + rot[0, 2] * pz + trans[0],
-            rot[1, 0] * px + rot[1, 1] * py + rot[1, 2] * pz + trans[1],
-            rot[2, 0] * px + rot[2, 1] * py + rot[2, 2] * pz + trans[2])
-
-
-@numba.njit(cache=True, nogil=True)
-def _gjk(points: Array, piece_start: IntArray, cylinder: Array, a: int, ra: Array,
-         ta: Array, b: int, rb: Array, tb: Array, prune: float, stop_below: float,
-         guess: Array, simplex: Array) -> tuple[float, float]:  # pragma: no cover
-    """Certified ``(lower, upper)`` of the distance of two placed pieces, mm.
-
-    Stops when ``lower >= prune``, when ``upper <= stop_below``, when converged or
-    stalled. ``guess`` (3,): a direction from B to A to start from (any, zero: +x);
-    the last direction is written back.
-    """
-    dx, dy, dz = guess[0], guess[1], guess[2]
-    if dx == 0.0 and dy == 0.0 and dz == 0.0:
-        dx = 1.0
-    ax, ay, az = _support(points, piece_start, cylinder, a, ra, ta, -dx, -dy, -dz)
-    bx, by, bz = _support(points, piece_start, cylinder, b, rb, tb, dx, dy, dz)
-    v = np.empty(3)
-    v[0], v[1], v[2] = ax - bx, ay - by, az - bz
-    lower = max((dx * v[0] + dy * v[1] + dz * v[2]) / math.sqrt(dx * dx + dy * dy + dz * dz),
-                0.0)
-    upper = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
-    if lower >= prune or upper <= stop_below:
-        if upper > 0.0:
-            guess[0], guess[1], guess[2] = v[0], v[1], v[2]
-        return lower, upper
-    simplex[0] = v
-    count = 1
-    for _ in range(_ITERATIONS):
-        vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
-        if vv <= 0.0:
-            return 0.0, 0.0
-        norm = math.sqrt(vv)
-        upper = min(upper, norm)
-        guess[0], guess[1], guess[2] = v[0], v[1], v[2]
-        ax, ay, az = _support(points, piece_start, cylinder, a, ra, ta, -v[0], -v[1], -v[2])
-        bx, by, bz = _support(points, piece_start, cylinder, b, rb, tb, v[0], v[1], v[2])
-        wx, wy, wz = ax - bx, ay - by, az - bz
-        vw = v[0] * wx + v[1] * wy + v[2] * wz
-        if vw > 0.0:
-            lower = max(lower, vw / norm)
-        if lower >= prune or upper <= stop_below or upper - lower <= _TOLERANCE:
-            return lower, upper
-        for k in range(count):
-            if simplex[k, 0] == wx and simplex[k, 1] == wy and simplex[k, 2] == wz:
-                return lower, upper
-        simplex[count, 0], simplex[count, 1], simplex[count, 2] = wx, wy, wz
-        count += 1
-        v, count = _reduce(simplex, count)
-        if count == 0:
-            return 0.0, 0.0
-        if v[0] * v[0] + v[1] * v[1] + v[2] * v[2] >= vv:
-            return lower, upper
-    return lower, upper
+    kind = CYLINDER if c[6] >= 0.0 else POINTS
+    return (kind, points, piece_start[k], piece_start[k + 1],
+            (c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]), rot, trans)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -327,8 +251,10 @@ def _pieces_bound(points: Array, piece_start: IntArray, piece_centre: Array,
             if sphere >= target:
                 lower = min(lower, sphere)
             else:
-                lo, hi = _gjk(points, piece_start, cylinder, a, ra, ta, b, rb, tb, target,
-                              stop_below, guesses[slot], simplex)
+                lo, hi = gjk_interval(_piece(points, piece_start, cylinder, a, ra, ta),
+                                      _piece(points, piece_start, cylinder, b, rb, tb),
+                                      guesses[slot], target, stop_below, _TOLERANCE,
+                                      _ITERATIONS, simplex)
                 lower = min(lower, lo)
                 upper = min(upper, hi)
                 if lo < prune and stop_below > -math.inf:
