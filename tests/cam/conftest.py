@@ -13,7 +13,8 @@ The machine model's planning and verification on the small chain are tested on
 xyzac-trt, where the part fits (``tests/cam/run/test_machine_chain.py``). Other tests (the report)
 read its files; they must not modify them. When ``cam.report`` is not in this build the report stage
 fails (as it should) and the fixture still returns the folder with every other stage
-done.
+done. ``finishing_setup``: the machine obstacle and passage paths of a spec on
+trunnion-500 at the chain's coarse finishing (the machine reach and bounds tests).
 """
 
 from __future__ import annotations
@@ -65,6 +66,44 @@ ONE_PASSAGE_SETTINGS: dict[str, Any] = {
     "rough": {**CHAIN_SETTINGS["rough"], "passages": 1},
     "finish": {**CHAIN_SETTINGS["finish"], "passages": 1},
 }
+
+
+def finishing_setup(spec: Path, tool_name: str) -> dict[str, Any]:
+    """The machine obstacle and the passage-0 paths of a spec on trunnion-500, at the
+    chain test's coarse finishing (``CHAIN_SETTINGS["finish"]``).
+
+    Returns
+    -------
+    dict
+        ``options`` (``FinishOptions``), ``tool``, ``obstacle`` (the finishing's
+        machine obstacle), ``paths`` (``passage_paths``) and ``kins``.
+    """
+    from cam.collision import CollisionScene
+    from cam.finishing.command import _machine_obstacle
+    from cam.finishing.options import FinishOptions, scallop_stepover
+    from cam.finishing.passes import passage_paths
+    from cam.finishing.scene import surface_meshes
+    from cam.tools import resolve_tool
+    from geometry.spec import load_spec
+    from geometry.surfaces import build_surfaces
+    from postproc.kinematics import kinematics_for
+    from postproc.machine import load_machine
+
+    options = FinishOptions.from_mapping({**FinishOptions().as_dict(),
+                                          **CHAIN_SETTINGS["finish"]})
+    machine = load_machine(TRUNNION)
+    kins = kinematics_for(machine)
+    tool = resolve_tool(tool_name)
+    surfaces = build_surfaces(load_spec(spec))
+    obstacle = _machine_obstacle(machine.model, kins,
+                                 CollisionScene(surface_meshes(surfaces, 1.0)), None, spec)
+    paths = passage_paths(surfaces, tool.radius, options.point_spacing_mm,
+                          scallop_stepover(tool.radius, options.scallop_mm),
+                          blade=options.blade_passes, hub=options.hub_passes,
+                          reach=max(tool.flute_length - tool.radius, 0.0),
+                          chordal=options.chordal_tolerance_mm)
+    return {"options": options, "tool": tool, "obstacle": obstacle, "paths": paths,
+            "kins": kins}
 
 
 @pytest.fixture(scope="session")

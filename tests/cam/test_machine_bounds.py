@@ -20,23 +20,13 @@ from typing import Any
 import numpy as np
 import pytest
 
-from cam.collision import CollisionScene
-from cam.finishing.command import _machine_obstacle
 from cam.finishing.machine_reach import candidates, starting_axes
-from cam.finishing.options import FinishOptions, scallop_stepover
-from cam.finishing.passes import passage_paths
 from cam.finishing.posture import c_max
-from cam.finishing.scene import surface_meshes
-from cam.tools import resolve_tool
 from cam.verify.machine_bounds import GUARD
 from cam.verify.machine_query import MachineClearance, joint_path_samples
 from cam.verify.machine_scene import _distance
-from geometry.spec import load_spec
-from geometry.surfaces import build_surfaces
-from postproc.kinematics import kinematics_for
-from postproc.machine import load_machine
 from postproc.machine_model import group_poses
-from tests.cam.conftest import ROOT, SMALL_SPEC, TRUNNION
+from tests.cam.conftest import ROOT, SMALL_SPEC, finishing_setup
 
 FIXTURES = {
     "nine_blade": (ROOT / "fixtures" / "impellers" / "nine_blade" / "spec.toml", "ball6_taper"),
@@ -45,25 +35,14 @@ FIXTURES = {
 }
 #: Postures compared per fixture (spread over all of them).
 POSTURES = 160
-COARSE: dict[str, Any] = {"scallop_mm": 0.8, "point_spacing_mm": 1.5}
 
 
 def _postures(spec: Path, tool_name: str) -> dict[str, Any]:
     """Starting postures and remedy/repair candidates of passage 0, and the query."""
-    options = FinishOptions.from_mapping({**FinishOptions().as_dict(), **COARSE})
-    machine = load_machine(TRUNNION)
-    kins = kinematics_for(machine)
-    tool = resolve_tool(tool_name)
-    surfaces = build_surfaces(load_spec(spec))
-    obstacle = _machine_obstacle(machine.model, kins,
-                                 CollisionScene(surface_meshes(surfaces, 1.0)), None, spec)
-    paths = passage_paths(surfaces, tool.radius, options.point_spacing_mm,
-                          scallop_stepover(tool.radius, options.scallop_mm),
-                          blade=options.blade_passes, hub=options.hub_passes,
-                          reach=max(tool.flute_length - tool.radius, 0.0),
-                          chordal=options.chordal_tolerance_mm)
+    setup = finishing_setup(spec, tool_name)
+    options, tool, kins = setup["options"], setup["tool"], setup["kins"]
     tips, axes = [], []
-    for path in paths:
+    for path in setup["paths"]:
         axis, sense = starting_axes(path, tool, kins, options)
         turn = np.full(len(axis), sense * float(np.min(
             c_max(path.centre, path.reference_axis, path.opposite_tip))))
@@ -74,8 +53,8 @@ def _postures(spec: Path, tool_name: str) -> dict[str, Any]:
         axes.append(flat)
     tip, axis = np.vstack(tips), np.vstack(axes)
     pick = np.unique(np.linspace(0, len(tip) - 1, POSTURES).round().astype(np.intp))
-    return {"tip": tip[pick], "axis": axis[pick], "obstacle": obstacle, "tool": tool,
-            "kins": kins}
+    return {"tip": tip[pick], "axis": axis[pick], "obstacle": setup["obstacle"],
+            "tool": tool, "kins": kins}
 
 
 @pytest.fixture(scope="module", params=sorted(FIXTURES))

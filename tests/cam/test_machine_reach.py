@@ -21,41 +21,14 @@ from typing import Any
 import numpy as np
 import pytest
 
-from cam.collision import CollisionScene
 from cam.finishing import machine_reach as reach_mod
-from cam.finishing.command import _machine_obstacle, run_finish
-from cam.finishing.options import FinishOptions, scallop_stepover
-from cam.finishing.passes import passage_paths
-from cam.finishing.scene import surface_meshes
-from cam.tools import resolve_tool
-from geometry.spec import load_spec
-from geometry.surfaces import build_surfaces
+from cam.finishing.command import run_finish
 from impeller_cam.errors import InputError
-from postproc.kinematics import kinematics_for
-from postproc.machine import load_machine
-from tests.cam.conftest import ROOT, SMALL_SPEC, TRUNNION
+from tests.cam.conftest import CHAIN_SETTINGS, ROOT, SMALL_SPEC, TRUNNION, finishing_setup
 
 NINE_BLADE = ROOT / "fixtures" / "impellers" / "nine_blade" / "spec.toml"
-#: The chain test's coarse finishing (tests/cam/conftest.py CHAIN_SETTINGS).
-COARSE: dict[str, Any] = {"scallop_mm": 0.8, "point_spacing_mm": 1.5}
-
-
-def _setup(spec: Path, tool_name: str) -> dict[str, Any]:
-    """The machine obstacle and the passage-0 paths of a spec on trunnion-500."""
-    options = FinishOptions.from_mapping({**FinishOptions().as_dict(), **COARSE})
-    machine = load_machine(TRUNNION)
-    kins = kinematics_for(machine)
-    tool = resolve_tool(tool_name)
-    surfaces = build_surfaces(load_spec(spec))
-    obstacle = _machine_obstacle(machine.model, kins,
-                                 CollisionScene(surface_meshes(surfaces, 1.0)), None, spec)
-    paths = passage_paths(surfaces, tool.radius, options.point_spacing_mm,
-                          scallop_stepover(tool.radius, options.scallop_mm),
-                          blade=options.blade_passes, hub=options.hub_passes,
-                          reach=max(tool.flute_length - tool.radius, 0.0),
-                          chordal=options.chordal_tolerance_mm)
-    return {"options": options, "tool": tool, "obstacle": obstacle, "paths": paths,
-            "kins": kins}
+#: The chain test's coarse finishing.
+COARSE: dict[str, Any] = CHAIN_SETTINGS["finish"]
 
 
 def test_the_small_part_on_trunnion_500_is_refused_before_planning(tmp_path: Path) -> None:
@@ -80,7 +53,7 @@ def test_the_small_part_on_trunnion_500_is_refused_before_planning(tmp_path: Pat
 def test_the_remedies_are_the_smallest_that_fit() -> None:
     """At the computed holder extension every spindle-side posture has a clearing
     candidate (the cutter's own pairs aside); 1 mm shorter, some has none."""
-    s = _setup(SMALL_SPEC, "ball4_taper")
+    s = finishing_setup(SMALL_SPEC, "ball4_taper")
     obstacle, tool = s["obstacle"], s["tool"]
     # the repair's preferred cone only: with the default 30 deg cone the candidates of
     # these postures clear their spindle-side pairs at the tool's own gauge length
@@ -117,7 +90,7 @@ def test_the_remedies_are_the_smallest_that_fit() -> None:
 
 
 def test_the_main_job_reaches_every_posture() -> None:
-    s = _setup(NINE_BLADE, "ball6_taper")
+    s = finishing_setup(NINE_BLADE, "ball6_taper")
     reach = reach_mod.reach_of(s["obstacle"], s["tool"], s["paths"], s["options"])
     assert reach.postures == sum(len(p) for p in s["paths"])
     assert not reach.unreachable.any()
