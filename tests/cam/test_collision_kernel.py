@@ -20,7 +20,7 @@ import pytest
 from cam.collision import CollisionScene, plain_fcl_check, rotations_to
 from cam.collision.body_distance import body_distances, tool_pieces
 from cam.collision.clearance import BAND
-from cam.collision.gjk import section_ring, triangle_piece_distance
+from cam.collision.gjk import CYLINDER, POINTS, gjk_interval, section_ring, triangle_piece_distance
 from cam.collision.synthetic import impeller_meshes
 from cam.collision.tool_mesh import revolve
 from cam.finishing.options import FinishOptions
@@ -84,6 +84,27 @@ def test_triangle_piece_distance_by_hand() -> None:
     inside = tri - [4.0, 0.0, 0.0]
     assert triangle_piece_distance(inside, 2.0, 0.0, 2.0, 10.0, square, np.inf,
                                    np.empty((4, 3)), 1.0, 0.0, 0.0) == (0.0, 0.0)
+
+
+def test_gjk_interval_of_placed_shapes_by_hand() -> None:
+    """The machine's use: an exact cylinder (radius 1, half-length 2, axis z) at the
+    origin and a unit cube turned 90 deg about z and moved to x = 5: 3.5 apart; the
+    stop rule's ``stop_below`` ends it at the first support."""
+    cube = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5)
+                     for z in (-0.5, 0.5)])
+    turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    no_params = (0.0,) * 8
+    box = (POINTS, cube, 0, 8, no_params, turn, np.array([5.0, 0.0, 1.0]))
+    cylinder = (CYLINDER, np.zeros((1, 3)), 0, 0, (0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 2.0),
+                np.eye(3), np.zeros(3))
+    direction = np.array([1.0, 1.0, 0.0])
+    lo, hi = gjk_interval(box, cylinder, direction, np.inf, -np.inf, 1e-9, 64,
+                          np.empty((4, 3)))
+    assert lo == pytest.approx(3.5, abs=1e-9) and hi == pytest.approx(3.5, abs=1e-9)
+    assert direction[0] > 0.0 and abs(direction[2]) < 1e-9  # the last direction, B to A
+    lo, hi = gjk_interval(box, cylinder, np.zeros(3), np.inf, 10.0, 1e-9, 64,
+                          np.empty((4, 3)))
+    assert 0.0 <= lo <= 3.5 <= hi <= 10.0
 
 
 @pytest.mark.parametrize("part", ["cutter", "body"])
