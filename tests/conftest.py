@@ -21,7 +21,7 @@ Tiers: ``-m "not slow"`` is the fast tier (unit, property and the small fixture'
 chain); ``slow`` marks the acceptance runs on the nine_blade and splitter fixtures,
 LinuxCNC's impeller demo and other tests that take more than about 15 s of a core.
 ``acceptance`` marks whole main-job-size chains (tens of minutes each): they run only
-with ``pytest --acceptance``. The terminal summary ends with the seconds each tier took
+with ``pytest --acceptance``. The terminal summary shows the seconds each tier took
 (``tier_seconds``: setup, call and teardown summed over the tests of the tier, on
 whichever worker ran them), so that a test growing out of its tier is seen.
 """
