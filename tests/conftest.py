@@ -21,10 +21,15 @@ Tiers: ``-m "not slow"`` is the fast tier (unit, property and the small fixture'
 chain); ``slow`` marks the acceptance runs on the nine_blade and splitter fixtures,
 LinuxCNC's impeller demo and other tests that take more than about 15 s of a core.
 ``acceptance`` marks whole main-job-size chains (tens of minutes each): they run only
-with ``pytest --acceptance``.
+with ``pytest --acceptance``. The terminal summary shows the seconds each tier took
+(``tier_seconds``: setup, call and teardown summed over the tests of the tier, on
+whichever worker ran them), so that a test growing out of its tier is seen.
 """
 
 from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any
 
 import pytest
 
@@ -68,3 +73,34 @@ def in_module_order(items: list[pytest.Item]) -> list[pytest.Item]:
 
     order = sorted(modules, key=group)  # stable: collection order within a group
     return [item for name in order for item in modules[name]]
+
+
+def tier_seconds(reports: Iterable[Any]) -> dict[str, tuple[int, float]]:
+    """Per tier (``"fast"``, ``"slow"``): the number of tests and the seconds their
+    setup, call and teardown took, summed (the workers' seconds, not wall time).
+
+    Parameters
+    ----------
+    reports : iterable
+        Test reports (``pytest.TestReport``: ``nodeid``, ``when``, ``duration`` in s,
+        ``keywords``); other objects (collect reports, warnings) are left out.
+    """
+    tests: dict[str, set[str]] = {"fast": set(), "slow": set()}
+    seconds = {"fast": 0.0, "slow": 0.0}
+    for report in reports:
+        if getattr(report, "when", None) not in ("setup", "call", "teardown"):
+            continue
+        tier = "slow" if "slow" in report.keywords else "fast"
+        tests[tier].add(report.nodeid)
+        seconds[tier] += float(report.duration)
+    return {tier: (len(tests[tier]), seconds[tier]) for tier in tests}
+
+
+def pytest_terminal_summary(terminalreporter: Any) -> None:
+    reports = [report for replist in terminalreporter.stats.values() for report in replist]
+    tiers = tier_seconds(reports)
+    if not any(count for count, _ in tiers.values()):
+        return
+    terminalreporter.write_sep("=", "seconds per tier (summed over the workers)")
+    for tier, (count, seconds) in tiers.items():
+        terminalreporter.write_line(f"{tier}: {count} tests, {seconds:.1f} s")

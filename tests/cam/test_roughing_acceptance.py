@@ -1,4 +1,5 @@
-"""Issue 5 acceptance on the nine-blade fixture (ball10), coarse options for speed."""
+"""Issue 5 acceptance on the nine-blade fixture (ball10), coarse options for speed; on the
+same roughing, issue 25's one program per operation against one program per visit."""
 
 from __future__ import annotations
 
@@ -246,32 +247,81 @@ def test_time_breakdown_as_measured(rough: tuple[Path, dict]) -> None:
             assert doc["time_limited_min"][plan][feed] >= doc["time_min"][plan][feed] - 1e-9
 
 
-def test_posted_programs_verify_clean_on_the_dexel_stock(rough: tuple[Path, dict],
-                                                        tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def verified(rough: tuple[Path, dict], tmp_path_factory: pytest.TempPathFactory
+             ) -> tuple[Path, dict]:
+    """The operation's programs posted (LinuxCNC) and swept in order through the
+    tri-dexel verification at 1 mm (the chain uses 0.5) on the spec's blank, with the
+    roughing's allowance: the folder of the NC files and verify.json's contents."""
+    from cam.verify.command import VerifyOptions, run_verify
+    from postproc.command import post_text
+
+    out, doc = rough
+    folder = tmp_path_factory.mktemp("rough_verified")
+    programs = []
+    for op in doc["operations"]:
+        nc = folder / (Path(op["apt"]).stem + ".ngc")
+        nc.write_text(post_text(out / op["apt"], MACHINE, post="linuxcnc"))
+        programs.append(nc)
+    run_verify(programs, MACHINE, "ball10", str(SPEC), SPEC, 1.0, folder / "verify",
+               options=VerifyOptions(allowance=allowance(doc), render=False),
+               progress=False)
+    return folder, json.loads((folder / "verify" / "verify.json").read_text())
+
+
+def allowance(doc: dict) -> float:
+    """What the roughing leaves on the design (mm): finishing allowance + scallop."""
+    return float(doc["finishing_allowance_mm"] + doc["options"]["scallop_mm"])
+
+
+def test_posted_programs_verify_clean_on_the_dexel_stock(verified: tuple[Path, dict]
+                                                        ) -> None:
     """Independent re-check of the layers by milling depth: every program posted
     (LinuxCNC) and swept in order through the tri-dexel verification (1 mm here; the
     chain uses 0.5) on the spec's blank: no gouge, no shank/holder in stock, no rapid
     in stock, no over-travel, and the material removed (measured: 674,144 mm^3 at
     1 mm; 674,224 at 0.5 mm, 99.65 % of what eq. 2's layers remove, docs/roughing.md)."""
-    import json
-
-    from cam.verify.command import VerifyOptions, run_verify
-    from postproc.command import post_text
-
-    out, doc = rough
-    programs = []
-    for op in doc["operations"]:
-        nc = tmp_path / (Path(op["apt"]).stem + ".ngc")
-        nc.write_text(post_text(out / op["apt"], MACHINE, post="linuxcnc"))
-        programs.append(nc)
-    allowance = doc["finishing_allowance_mm"] + doc["options"]["scallop_mm"]
-    run_verify(programs, MACHINE, "ball10", str(SPEC), SPEC, 1.0, tmp_path / "verify",
-               options=VerifyOptions(allowance=allowance, render=False), progress=False)
-    report = json.loads((tmp_path / "verify" / "verify.json").read_text())
+    _, report = verified
     counts = report["event_counts"]
     for kind in ("gouge", "holder_collision", "rapid_in_stock", "overtravel"):
         assert counts[kind] == 0, counts
     assert report["removed_volume_mm3"] > 0.99 * 674_144.0
+
+
+def test_one_program_per_operation_removes_what_the_visits_remove(
+        rough: tuple[Path, dict], verified: tuple[Path, dict], tmp_path: Path) -> None:
+    """Roughing as one program per operation (issue 25): one NC program with one tool
+    call, every UMR visit a section, against the one-file-per-visit layout. The one
+    program (``verified``) holds the visits' APT operations in cut order with one
+    ``T.. M6`` (rs274 accepts it: ``test_posts_into_program_rs274_accepts``); the
+    visits, each posted as a program of its own with its own tool call and verified in
+    sequence, remove the same volume from the blank, with a clean verification (no
+    gouge, shank/holder collision, over-travel or rapid in stock)."""
+    from cam.verify.command import VerifyOptions, run_verify
+    from postproc.apt import write_apt
+    from postproc.command import post_text
+
+    out, doc = rough
+    folder, one = verified
+    assert [op["apt"] for op in doc["operations"]] == ["rough.apt"]
+    visits = read_apt(out / "rough.apt")
+    assert [v.name for v in visits] == [s["name"] for s in doc["operations"][0]["sections"]]
+    assert len(visits) > 1, "the test needs several visits"
+    assert (folder / "rough.ngc").read_text().count(" M6") == 1
+    per_visit = []
+    for visit in visits:
+        apt = write_apt(tmp_path / f"{visit.name}.apt", [visit])
+        nc = tmp_path / f"{visit.name}.ngc"
+        nc.write_text(post_text(apt, MACHINE, post="linuxcnc"))
+        assert nc.read_text().count(" M6") == 1
+        per_visit.append(nc)
+    run_verify(per_visit, MACHINE, "ball10", str(SPEC), SPEC, 1.0, tmp_path / "visits",
+               options=VerifyOptions(allowance=allowance(doc), render=False), progress=False)
+    report = json.loads((tmp_path / "visits" / "verify.json").read_text())
+    for kind in ("gouge", "holder_collision", "rapid_in_stock", "overtravel"):
+        assert report["event_counts"][kind] == 0, report["event_counts"]
+    assert one["removed_volume_mm3"] > 0
+    assert report["removed_volume_mm3"] == pytest.approx(one["removed_volume_mm3"], rel=1e-9)
 
 
 def test_posts_into_program_rs274_accepts(rough: tuple[Path, dict], tmp_path: Path) -> None:
