@@ -7,7 +7,11 @@ will and verifies them on the spec's blank into ``verify/rough/``. The verify st
 then needs the same run; ``reusable_rough`` says whether the one on disk verified
 exactly the programs the post stage wrote (byte for byte) with the same tool,
 resolution and allowance, and ``stock_deviation`` gives its final stock's deviation
-from the design (what ``run_verify`` returns), so that run is not repeated.
+from the design (what ``run_verify`` returns), so that run is not repeated. The
+finish stage's run measures that deviation anyway; it is kept beside the stock
+(``verify/rough/deviation.npz``, ``cam.verify.deviation.save_deviation``) and read
+back when it was made for the same samples and the same design distance, else
+measured again.
 """
 
 from __future__ import annotations
@@ -25,10 +29,12 @@ if TYPE_CHECKING:
     from cam.verify.deviation import DesignDistance, Deviation
     from cam.verify.stock import Stock
 
-__all__ = ["ROUGH_VERIFY", "reusable_rough", "stock_deviation", "verify_rough"]
+__all__ = ["DEVIATION", "ROUGH_VERIFY", "reusable_rough", "stock_deviation", "verify_rough"]
 
 #: Where the finish stage leaves the rough verification (relative to the output).
 ROUGH_VERIFY = "verify/rough"
+#: The deviation of that run's final stock, in its folder (``save_deviation``).
+DEVIATION = "deviation.npz"
 
 
 def verify_rough(ctx: Context) -> Path:
@@ -41,6 +47,8 @@ def verify_rough(ctx: Context) -> Path:
     on success).
     """
     from cam.verify.command import VerifyOptions, run_verify
+    from cam.verify.deviation import DesignDistance, save_deviation
+    from cam.verify.sources import load_design
     from postproc.command import post_text
     from postproc.machine import load_machine
     from postproc.posts import get_post
@@ -58,11 +66,16 @@ def verify_rough(ctx: Context) -> Path:
             nc = stage / "nc" / f"{Path(op['apt']).stem}.{dialect.extension}"
             write_text_atomic(nc, post_text(apt, ctx.machine, post=dialect.name))
             programs.append(nc)
-        run_verify(programs, ctx.machine, ctx.settings.rough_tool, str(ctx.spec), ctx.spec,
-                   ctx.settings.verify_resolution_mm, stage,
-                   options=VerifyOptions(allowance=rough_allowance(ctx),
-                                         render_each_program=False,
-                                         refuse_short_stock=True), progress=False)
+        vertices, faces, _ = load_design(ctx.spec)
+        distance = DesignDistance(vertices, faces)
+        deviation = run_verify(
+            programs, ctx.machine, ctx.settings.rough_tool, str(ctx.spec), ctx.spec,
+            ctx.settings.verify_resolution_mm, stage,
+            options=VerifyOptions(allowance=rough_allowance(ctx), render_each_program=False,
+                                  refuse_short_stock=True),
+            progress=False, design_distance=distance)
+        if deviation is not None:  # the verify stage reads it back (stock_deviation)
+            save_deviation(stage / DEVIATION, deviation, distance)
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)
         raise
@@ -95,11 +108,21 @@ def reusable_rough(ctx: Context) -> Path | None:
     return folder
 
 
-def stock_deviation(stock: Stock, distance: DesignDistance) -> Deviation:
+def stock_deviation(stock: Stock, distance: DesignDistance,
+                    saved: Path | None = None) -> Deviation:
     """Surface samples of a stock with their signed design distance and closest design
-    face (what ``run_verify`` returns for its final stock)."""
-    from cam.verify.deviation import Deviation
+    face (what ``run_verify`` returns for its final stock).
+
+    ``saved``: a ``save_deviation`` file of this stock (``verify/rough/deviation.npz``);
+    read when it was made for these samples and this design distance, else the
+    samples are measured.
+    """
+    from cam.verify.deviation import Deviation, load_deviation
 
     points, _, moves = stock.surface_samples()
+    if saved is not None:
+        known = load_deviation(saved, points, moves, distance)
+        if known is not None:
+            return known
     signed, face = distance.closest(points)
     return Deviation(points, signed, moves, face)

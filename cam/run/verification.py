@@ -68,7 +68,7 @@ def allowances(ctx: Context) -> dict[str, float]:
 
 def verify_chain(ctx: Context) -> dict[str, Any]:
     """Run both verifications and the region analysis; returns regions.json content."""
-    from cam.run.rough_stock import reusable_rough, stock_deviation
+    from cam.run.rough_stock import DEVIATION, reusable_rough, stock_deviation
     from cam.tools import resolve_tool
     from cam.verify.command import VerifyOptions, run_verify
     from cam.verify.sources import load_stock
@@ -96,9 +96,11 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
         reused = reusable_rough(ctx)
         rough_deviation: Deviation | None
         if reused is not None:
-            shutil.copytree(reused, stage / "rough", ignore=shutil.ignore_patterns("nc"))
+            shutil.copytree(reused, stage / "rough",
+                            ignore=shutil.ignore_patterns("nc", DEVIATION))
             stock = Stock.load(stage / "rough" / "stock.npz")
-            rough_deviation = stock_deviation(stock, design.distance)
+            # measured by the finish stage's run (read back when it matches)
+            rough_deviation = stock_deviation(stock, design.distance, reused / DEVIATION)
         else:
             stock = load_stock(str(ctx.spec), resolution)
             rough_deviation = run_verify(

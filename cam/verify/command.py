@@ -108,13 +108,15 @@ def _sweep_program(
     ids = (moves.block + block_offset).astype(np.int32)
     stats = np.zeros((n_sub, 3))
     task = bar.add_task(label, total=n_sub) if bar is not None else None
-    for s in range(0, n_sub, BATCH):
-        e = min(n_sub, s + BATCH)
-        stats[s:e] = stock.sweep(
-            moves.tips[s:e], moves.moves[s:e], moves.axes[s:e], ids[s:e], shape
-        )
+
+    def done(swept: int) -> None:
         if bar is not None:
-            bar.update(task, completed=e)
+            bar.update(task, completed=swept)
+
+    # BATCH sub-moves a compiled call; the grids go through the batches independently
+    if n_sub:
+        stats[:] = stock.sweep(moves.tips, moves.moves, moves.axes, ids, shape, batch=BATCH,
+                               done=done)
     n_blocks = len(moves.end_tip)
     per_block = np.zeros((n_blocks, 3))
     np.add.at(per_block[:, 0], moves.block, stats[:, 0])

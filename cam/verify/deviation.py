@@ -31,6 +31,13 @@ point and move id: ``sample_deviation`` with the earlier ``Deviation`` takes tho
 ends' distances and faces from it (``matched_samples``: an exact match of the point,
 so the answer is the one the query would give) and queries only the others.
 
+A deviation can be kept with its stock (``save_deviation`` / ``load_deviation``,
+``.npz``): the chain's finish stage verifies the rough programs and measures their
+stock; the verify stage reads that measurement back instead of repeating the query
+(20 million samples on nine_blade). The file holds the signed distances and closest
+faces with digests of the samples and of the ``DesignDistance`` (``fingerprint``);
+it is used only when both match, so the answers are those the query would give.
+
 Limitation: a cut that removes a whole dexel interval inside the design (cutting
 through a thin wall) leaves no end to sample on that ray; the neighbouring rays and
 the other two grids still see the walls of the cut.
@@ -38,7 +45,10 @@ the other two grids still see the walls of the cut.
 
 from __future__ import annotations
 
+import hashlib
+import io
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -47,6 +57,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from cam.verify.inside import MeshParity
+from impeller_cam.atomic import write_bytes_atomic
 
 #: Points per chunk of the distance query (bounds memory).
 CHUNK = 100_000
@@ -108,6 +119,20 @@ class DesignDistance:
         #: farthest vertex from its triangle's centroid: a triangle whose centroid lies
         #: farther than ``d + reach`` from a point cannot be closer than ``d`` to it
         self.reach = float(np.linalg.norm(self.triangles - centroids[:, None], axis=2).max())
+        self._fingerprint: str | None = None
+
+    @property
+    def fingerprint(self) -> str:
+        """Hex digest of everything the answers depend on (the subdivided triangles,
+        their input faces, the parity mesh, the candidate count and the tie and
+        confirmation constants): equal fingerprints answer every query alike."""
+        if self._fingerprint is None:
+            digest = hashlib.blake2b(digest_size=20)
+            for array in (self.triangles, self.source_face, self.parity.triangles,
+                          np.array([self.candidates, EXACT_BELOW, TIE, CHUNK], np.float64)):
+                digest.update(np.ascontiguousarray(array).tobytes())
+            self._fingerprint = digest.hexdigest()
+        return self._fingerprint
 
     def __call__(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
         """Signed distances (n,) of points (n, 3), mm: + outside, - inside the design
@@ -325,3 +350,80 @@ def sample_deviation(points: NDArray[np.float64], moves: NDArray[np.int32],
     if len(todo):
         signed[todo], face[todo] = distance.closest(points[todo])
     return Deviation(points, signed, moves, face)
+
+
+#: Format tag of a saved deviation (``save_deviation``).
+DEVIATION_FORMAT = "impeller-cam deviation 1"
+
+
+def _samples_digest(points: NDArray[np.float64], moves: NDArray[np.int32]) -> str:
+    """Hex digest of stock surface samples (points and move ids, as float64/int64)."""
+    digest = hashlib.blake2b(digest_size=20)
+    digest.update(np.ascontiguousarray(points, np.float64).tobytes())
+    digest.update(np.ascontiguousarray(moves, np.int64).tobytes())
+    return digest.hexdigest()
+
+
+def save_deviation(path: str | Path, deviation: Deviation, distance: DesignDistance) -> Path:
+    """Write a deviation's distances and faces (``.npz``, atomically) for
+    ``load_deviation``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.npz`` file.
+    deviation : Deviation
+        With faces (``sample_deviation``); its points and moves are stored as a digest.
+    distance : DesignDistance
+        The design distance that measured it (stored as its ``fingerprint``).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    if deviation.faces is None:
+        raise ValueError("a deviation without faces cannot be saved")
+    buffer = io.BytesIO()
+    np.savez(buffer, format=np.array(DEVIATION_FORMAT),
+             design=np.array(distance.fingerprint),
+             samples=np.array(_samples_digest(deviation.points, deviation.moves)),
+             distance=np.asarray(deviation.distance, np.float64),
+             faces=np.asarray(deviation.faces, np.int64).astype(np.int32))
+    return write_bytes_atomic(path, buffer.getvalue())
+
+
+def load_deviation(path: str | Path, points: NDArray[np.float64], moves: NDArray[np.int32],
+                   distance: DesignDistance) -> Deviation | None:
+    """The deviation ``save_deviation`` wrote for these samples and this design distance.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.npz`` file.
+    points : (n, 3) float64
+        The stock's surface samples (``Stock.surface_samples``), mm.
+    moves : (n,) int32
+        Their move ids.
+    distance : DesignDistance
+        The design distance the caller would query.
+
+    Returns
+    -------
+    Deviation or None
+        ``Deviation(points, *distance.closest(points))`` as it was saved; ``None`` when
+        the file is missing or unreadable, or was made for other samples or another
+        design (then the caller queries).
+    """
+    try:
+        with np.load(Path(path), allow_pickle=False) as data:
+            if (str(data["format"]) != DEVIATION_FORMAT
+                    or str(data["design"]) != distance.fingerprint
+                    or len(data["distance"]) != len(points)
+                    or str(data["samples"]) != _samples_digest(points, moves)):
+                return None
+            signed = np.asarray(data["distance"], np.float64)
+            faces = np.asarray(data["faces"], np.int64)
+    except (OSError, ValueError, KeyError):
+        return None
+    return Deviation(points, signed, moves, faces)

@@ -15,16 +15,17 @@ state, docs/formats.md).
 from __future__ import annotations
 
 import os
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from cam.verify.dexel import TILE, DexelGrid
+from cam.verify.dexel import TILE as TILE  # re-exported (tests)
+from cam.verify.dexel import DexelGrid
 from cam.verify.raycast import cast_mesh
-from cam.verify.sweep import sweep_grid
+from cam.verify.schedule import sweep_grids
 from cam.verify.toolshape import ToolShape
 from impeller_cam.atomic import write_bytes_atomic
 from impeller_cam.errors import InputError
@@ -63,34 +64,6 @@ def default_threads() -> int:
     return max(1, os.cpu_count() or 1)
 
 
-def _sweep_grid(
-    grid: DexelGrid,
-    tips: NDArray[np.float64],
-    moves: NDArray[np.float64],
-    axes: NDArray[np.float64],
-    ids: NDArray[np.int32],
-    prims: NDArray[np.float64],
-    cuts: NDArray[np.bool_],
-    strides: NDArray[np.int64],
-) -> NDArray[np.float64]:
-    """All moves through one grid (compiled, releases the GIL); stats (m, 4)."""
-    stats = np.zeros((len(tips), 4))
-    first = 0
-    index = grid.sweep_index()
-    while True:
-        failed = sweep_grid(
-            grid.lo, grid.hi, grid.lo_move, grid.hi_move, grid.start, grid.count,
-            grid.cap, grid.used, grid.k, grid.origin, grid.shape, grid.pitch,
-            index.tile_lo, index.tile_hi, index.dirty, TILE, tips, moves, axes, ids, prims,
-            cuts, strides, first, stats, index.acc, index.touched, grid.counters,
-            index.mat_lo, index.mat_hi, index.gap_lo, index.gap_hi,
-        )
-        if failed < 0:
-            return stats
-        grid.grow()
-        first = failed
-
-
 class Stock:
     """Tri-dexel stock model.
 
@@ -120,8 +93,9 @@ class Stock:
         self.lower = np.asarray(lower, dtype=np.float64)
         self.upper = np.asarray(upper, dtype=np.float64)
         self.owners: list[tuple[str, int]] = []
-        #: Threads of a sweep (one grid each; None: ``default_threads``). The grids
-        #: are independent, so the result does not depend on it.
+        #: Threads of a sweep (at most one per grid at a time; None:
+        #: ``default_threads``). The grids are independent, so the result does not
+        #: depend on it.
         self.threads: int | None = None
 
     # ------------------------------------------------------------------ constructors
@@ -350,6 +324,8 @@ class Stock:
         move_ids: NDArray[np.int32],
         shape: ToolShape,
         probe_pitch: float = 0.5,
+        batch: int | None = None,
+        done: Callable[[int], None] | None = None,
     ) -> NDArray[np.float64]:
         """Sweep the tool along straight fixed-axis moves: cut with the cutter, probe
         with shank and holder.
@@ -370,6 +346,11 @@ class Stock:
             Ray spacing, mm, on which shank and holder are probed (every
             ``round(probe_pitch / h)``-th ray; contacts narrower than this across the
             rays can be missed). Cutting always uses every ray.
+        batch : int, optional
+            Moves per compiled call (``None``: all at once). The grids advance through
+            the batches independently (``cam.verify.schedule``): the same result.
+        done : callable, optional
+            Progress: called with the number of leading moves every grid has swept.
 
         Returns
         -------
@@ -389,11 +370,7 @@ class Stock:
         out = np.zeros((len(tips), 3))
         job = (tips, moves, axes, ids, prims, cuts, strides)
         threads = self.threads if self.threads is not None else default_threads()
-        if threads > 1 and len(tips) > 1:
-            with ThreadPoolExecutor(max_workers=min(threads, 3)) as pool:
-                per_grid = list(pool.map(lambda g: _sweep_grid(g, *job), self.grids))
-        else:
-            per_grid = [_sweep_grid(g, *job) for g in self.grids]
+        per_grid = sweep_grids(self.grids, job, batch, threads, done)
         for grid, stats in zip(self.grids, per_grid, strict=True):  # fixed order
             out[:, 0] += stats[:, 0] * grid.pitch**2 / 3.0
             out[:, 1] = np.maximum(out[:, 1], stats[:, 1])

@@ -342,6 +342,42 @@ def test_one_thread_and_two_give_identical_results() -> None:
             assert np.array_equal(x, y)
 
 
+def test_grids_through_batches_on_threads_give_the_one_call_result() -> None:
+    """``Stock.sweep(batch=...)`` (``cam.verify.schedule``: each grid a chain of batches,
+    the grids in any order on the pool): the same stock and statistics with one, two
+    and three threads, and the stock of one call per grid (its statistics to
+    round-off: a pool overflow splits a move's sum at another place); the progress
+    reaches every move; a pool overflow in a batch (rows of holes split the X rays)
+    resumes."""
+    shape = tool_shape(_tool("bull"))
+    tips, moves, axes = _moves(11, 240, True)
+    xs, ys = np.meshgrid([-7.45, -2.45, 2.55, 7.55], [-5.05, 0.05, 5.05])
+    holes = np.column_stack([xs.ravel(), ys.ravel(), np.full(xs.size, 1.0)])
+    tips = np.vstack([holes, tips])
+    moves = np.vstack([np.tile([0.0, 0.0, -5.0], (xs.size, 1)), moves])
+    axes = np.vstack([np.tile([0.0, 0.0, 1.0], (xs.size, 1)), axes])
+    ids = np.arange(len(tips), dtype=np.int32) // 3  # several sub-moves a block
+    whole = Stock.box([-10.0, -8.0, -8.0], [10.0, 8.0, 0.0], 0.2)
+    whole.threads = 1
+    one_call = whole.sweep(tips, moves, axes, ids, shape)
+    results = []
+    for threads in (1, 2, 3):
+        stock = Stock.box([-10.0, -8.0, -8.0], [10.0, 8.0, 0.0], 0.2)
+        stock.threads = threads
+        size = len(stock.grids[0].lo)
+        seen: list[int] = []
+        stats = stock.sweep(tips, moves, axes, ids, shape, batch=37, done=seen.append)
+        assert len(stock.grids[0].lo) > size  # the X grid's pool grew
+        assert seen == sorted(set(seen)) and seen[-1] == len(tips)
+        results.append((stats, _intervals(stock)))
+    for stats, intervals in results:
+        assert np.array_equal(stats, results[0][0])
+        np.testing.assert_allclose(stats, one_call, rtol=1e-12, atol=1e-12)
+        for a, b in zip(intervals, _intervals(whole), strict=True):
+            for x, y in zip(a, b, strict=True):
+                assert np.array_equal(x, y)
+
+
 def test_longest_cut_is_the_cutters_cut_along_one_ray() -> None:
     # a 4 mm ball plunged 2 mm into a box: along a Z ray it cuts 2 mm; the longest
     # cut is the chord of the X (and Y) ray 0.05 mm below the top through the ball

@@ -8,9 +8,11 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from cam.tools import resolve_tool
 from cam.verify.command import VerifyOptions, run_verify
 from cam.verify.deviation import DesignDistance, Deviation, matched_samples, sample_deviation
 from cam.verify.stock import Stock
+from cam.verify.toolshape import tool_shape
 
 ROOT = Path(__file__).resolve().parents[2]
 MACHINE = ROOT / "fixtures" / "machines" / "xyzac-trt.toml"
@@ -68,3 +70,47 @@ def test_a_sample_not_in_the_earlier_deviation_is_queried() -> None:
     got = sample_deviation(points, np.array([-1, 0, 1], np.int32), distance, old, 2)
     assert got.distance[0] == 1.0  # taken over (a made-up value, not the query's)
     assert np.allclose(np.abs(got.distance[1:]), [2.5, 3.0])
+
+
+def test_a_saved_deviation_is_read_back_only_for_its_samples_and_design(
+        tmp_path: Path) -> None:
+    """``save_deviation`` / ``load_deviation`` (the finish stage's rough run measured
+    once, read back by the verify stage: ``rough_stock.stock_deviation``)."""
+    from cam.run.rough_stock import stock_deviation
+    from cam.verify.deviation import load_deviation, save_deviation
+
+    design: Any = trimesh.load(_box_stl(tmp_path / "design.stl", [-20, -20, -10],
+                                        [20, 20, -5]))
+    distance = DesignDistance(np.asarray(design.vertices), np.asarray(design.faces))
+    stock = Stock.box(np.array([-20.0, -20, -10]), np.array([20.0, 20, 0]), 0.5)
+    points, _, moves = stock.surface_samples()
+    signed, face = distance.closest(points)
+    path = save_deviation(tmp_path / "deviation.npz", Deviation(points, signed, moves, face),
+                          distance)
+    got = load_deviation(path, points, moves, distance)
+    assert got is not None and got.faces is not None
+    assert np.array_equal(got.distance, signed) and np.array_equal(got.faces, face)
+    assert np.array_equal(got.points, points) and np.array_equal(got.moves, moves)
+    # another design (same mesh, moved by 1 um), other samples, no file: not used
+    other = DesignDistance(np.asarray(design.vertices) + [0.0, 0.0, 1e-3],
+                           np.asarray(design.faces))
+    assert other.fingerprint != distance.fingerprint
+    assert load_deviation(path, points, moves, other) is None
+    moved = points.copy()
+    moved[7, 2] += 1e-9
+    assert load_deviation(path, moved, moves, distance) is None
+    assert load_deviation(path, points[1:], moves[1:], distance) is None
+    assert load_deviation(tmp_path / "none.npz", points, moves, distance) is None
+    (tmp_path / "bad.npz").write_bytes(b"not a zip")
+    assert load_deviation(tmp_path / "bad.npz", points, moves, distance) is None
+    # the stock's deviation: read back when it matches, measured otherwise, alike
+    for saved in (path, tmp_path / "none.npz", None):
+        again = stock_deviation(stock, distance, saved)
+        assert again.faces is not None
+        assert np.array_equal(again.distance, signed) and np.array_equal(again.faces, face)
+    stock.sweep(np.array([[0.0, 0.0, -2.0]]), np.array([[5.0, 0.0, 0.0]]),
+                np.array([[0.0, 0.0, 1.0]]), np.zeros(1, np.int32),
+                tool_shape(resolve_tool("ball6")))
+    cut = stock_deviation(stock, distance, path)  # the samples changed: measured
+    points, _, moves = stock.surface_samples()
+    assert np.array_equal(cut.distance, distance.closest(points)[0])

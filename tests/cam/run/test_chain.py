@@ -382,3 +382,40 @@ def test_the_verify_stage_reuses_the_finish_stage_rough_run_only_when_it_matches
     with open(out / programs[0], "a") as handle:
         handle.write("(changed)\n")
     assert reusable_rough(ctx) is None
+
+
+@pytest.mark.slow
+def test_the_finish_stage_rough_run_keeps_the_deviation_the_verify_stage_reads(
+        chain_small: Path, tmp_path: Path) -> None:
+    """``verify_rough`` leaves ``verify/rough/deviation.npz``; the verify stage's design
+    distance (``LabelledDesign``) reads it back for that run's stock (no query), and
+    the answers are the query's."""
+    import numpy as np
+
+    from cam.run.regions import LabelledDesign
+    from cam.run.rough_stock import DEVIATION, stock_deviation, verify_rough
+    from cam.run.settings import resolve_settings
+    from cam.run.stages import Context
+    from cam.verify.deviation import load_deviation
+    from cam.verify.stock import Stock
+
+    out = tmp_path / "out"
+    for relative in ("rough", "nc", "run.json"):
+        source = chain_small / relative
+        if source.is_dir():
+            shutil.copytree(source, out / relative)
+        else:
+            shutil.copy(source, out / relative)
+    ctx = Context(SMALL_SPEC, CHAIN_MACHINE, out, resolve_settings(SMALL_SPEC, **CHAIN_SETTINGS))
+    stock_path = verify_rough(ctx)
+    saved = stock_path.parent / DEVIATION
+    assert saved.is_file()
+    design = LabelledDesign(SMALL_SPEC)
+    stock = Stock.load(stock_path)
+    points, _, moves = stock.surface_samples()
+    known = load_deviation(saved, points, moves, design.distance)
+    assert known is not None and known.faces is not None  # read back, not queried
+    signed, faces = design.distance.closest(points)
+    assert np.array_equal(known.distance, signed) and np.array_equal(known.faces, faces)
+    again = stock_deviation(stock, design.distance, saved)
+    assert np.array_equal(again.distance, signed)
