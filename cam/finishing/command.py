@@ -68,7 +68,9 @@ from postproc.kinematics import Kinematics
 from postproc.toolpath import Cutter, Toolpath
 
 if TYPE_CHECKING:
+    from cam.verify.deviation import DesignDistance
     from cam.verify.stock import Stock
+    from geometry.impeller import Impeller
 
 __all__ = ["SCENE_SOURCES", "finish_toolpaths", "run_finish"]
 
@@ -153,13 +155,15 @@ def _check_links(scene: CollisionScene, tool: Tool, toolpath: Toolpath,
 
 
 def _stock_scene(the_stock: Stock, impeller: Any, design: CollisionScene,
-                 opts: FinishOptions) -> StockScene:
-    """The design scene with the stock's excess material (``stock_clearance``)."""
+                 opts: FinishOptions, distance: DesignDistance | None = None) -> StockScene:
+    """The design scene with the stock's excess material (``stock_clearance``);
+    ``distance``: the signed distance from ``impeller.mesh()`` when already built."""
     from cam.verify.deviation import DesignDistance
 
-    mesh = impeller.mesh()
-    distance = DesignDistance(np.asarray(mesh.vertices, np.float64),
-                              np.asarray(mesh.faces, np.int64))
+    if distance is None:
+        mesh = impeller.mesh()
+        distance = DesignDistance(np.asarray(mesh.vertices, np.float64),
+                                  np.asarray(mesh.faces, np.int64))
     excess = excess_voxels(the_stock, distance, opts.clearance_mm - opts.stock_clearance_mm,
                            opts.stock_voxel_mm)
     return StockScene(design, excess)
@@ -250,6 +254,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                library: str | Path | None = None, scene: str = "solid", plots: bool = True,
                progress: bool | None = None, fillet_tool: str | None = None,
                stock: str | Path | None = None, machine_obstacle: bool = True,
+               design: Impeller | None = None, design_distance: DesignDistance | None = None,
                **fields: Any) -> dict[str, Any]:
     """Five-axis finishing of an impeller: APT per operation, finish.json, plots.
 
@@ -287,6 +292,13 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         With a machine file that has a ``[model]``: every posture, motion and link is
         also checked against the machine's components (``cam.finishing.
         machine_obstacle``; the part's solid from ``stock``, else the spec's blank).
+    design : Impeller, optional
+        The spec's impeller, already built (``geometry.impeller.Impeller``; the
+        chain's, which verified the rough stock with it): its solid and meshes are
+        reused (``scene="solid"``; default: built here).
+    design_distance : DesignDistance, optional
+        The signed distance from ``design.mesh()``, already built (with ``stock``:
+        the excess material's depth; default: built here).
     **fields
         Fields of ``FinishOptions`` (mm, deg) replacing those of ``options``, checked
         like a ``[machining.finish]`` table (unknown names refused).
@@ -333,7 +345,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
     if scene == "solid":
         from geometry.impeller import Impeller
 
-        impeller = Impeller(the_spec)
+        impeller = design if design is not None else Impeller(the_spec)
         surfaces = impeller.surfaces
         meshes = solid_meshes(impeller, opts.tessellation_mm)
     else:
@@ -341,7 +353,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         meshes = surface_meshes(surfaces, SURFACE_MESH_SPACING)
     collision = CollisionScene(meshes)
     if the_stock is not None:
-        collision = _stock_scene(the_stock, impeller, collision, opts)
+        collision = _stock_scene(the_stock, impeller, collision, opts, design_distance)
     stock_scene = collision if isinstance(collision, StockScene) else None
     obstacle = None
     if machine_obstacle and the_machine.model is not None:

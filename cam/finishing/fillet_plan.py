@@ -32,6 +32,7 @@ from pathlib import Path
 
 from cam.collision import CollisionScene
 from cam.finishing.fillet_paths import LEAN_DEG, fillet_passes
+from cam.finishing.interference import StepHint
 from cam.finishing.options import FinishOptions
 from cam.finishing.paths import CutterPath, rotate_path
 from cam.finishing.pieces import cut_short_entry, finish_pieces, finish_runs, finish_trimmed
@@ -158,7 +159,12 @@ def _finish_all(base: list[CutterPath], surfaces: ImpellerSurfaces, tool: Tool,
                 kins: Kinematics, scene: CollisionScene, options: FinishOptions,
                 scene_source: str, progress: Callable[[int, int, str], None] | None
                 ) -> FinishResult:
-    """Every passage's rotation of ``base``, each path finished (``finish_trimmed``)."""
+    """Every passage's rotation of ``base``, each path finished (``finish_runs``).
+
+    As ``plan.plan_finishing``: the same pass in the previous passage hands on its
+    eq. 7 remedy step (``interference.StepHint``), tried first and proven before it
+    is taken, so the results are those without it, with fewer checks.
+    """
     blades = surfaces.spec.blades
     count = blades if options.passages is None else min(options.passages, blades)
     ordered: list[CutterPath] = []
@@ -166,8 +172,12 @@ def _finish_all(base: list[CutterPath], surfaces: ImpellerSurfaces, tool: Tool,
         ordered += [p if k == 0 else rotate_path(p, k, surfaces.spec.pitch) for p in base]
     results: list[PathResult] = []
     cut_short = []
+    hints: dict[str, StepHint | None] = {}
     for i, path in enumerate(ordered):
-        pieces, lost = finish_runs(path, tool, kins, scene, options, surfaces)
+        key = path.name.split(".", 1)[1]  # the pass, whatever the passage
+        pieces, lost = finish_runs(path, tool, kins, scene, options, surfaces,
+                                   hint=hints.get(key))
+        hints[key] = pieces[0].step_hint if len(pieces) == 1 and not lost.size else None
         results += pieces
         if lost.size:
             cut_short.append(cut_short_entry(path, lost))

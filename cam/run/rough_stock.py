@@ -19,8 +19,11 @@ from __future__ import annotations
 import json
 import shutil
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from cam.run.stages import Context, nc_programs, read_json, rough_allowance
 from impeller_cam.atomic import replace_path, write_text_atomic
@@ -29,7 +32,8 @@ if TYPE_CHECKING:
     from cam.verify.deviation import DesignDistance, Deviation
     from cam.verify.stock import Stock
 
-__all__ = ["DEVIATION", "ROUGH_VERIFY", "reusable_rough", "stock_deviation", "verify_rough"]
+__all__ = ["DEVIATION", "ROUGH_VERIFY", "RoughStock", "reusable_rough", "stock_deviation",
+           "verify_rough"]
 
 #: Where the finish stage leaves the rough verification (relative to the output).
 ROUGH_VERIFY = "verify/rough"
@@ -37,18 +41,40 @@ ROUGH_VERIFY = "verify/rough"
 DEVIATION = "deviation.npz"
 
 
-def verify_rough(ctx: Context) -> Path:
-    """Post and verify the rough programs on the blank; the verified stock's path.
+@dataclass(frozen=True)
+class RoughStock:
+    """The verified rough stock and the design it was measured against.
+
+    Attributes
+    ----------
+    path : Path
+        ``verify/rough/stock.npz`` (the stock the rough programs leave).
+    design : Impeller
+        The spec's impeller (``geometry.impeller.Impeller``): finishing reuses its
+        solid and meshes (cached) instead of building them again.
+    distance : DesignDistance
+        Signed distance from ``design.mesh()`` (the verification's design, mm):
+        finishing measures the stock's excess material with it.
+    """
+
+    path: Path
+    design: Any
+    distance: DesignDistance
+
+
+def verify_rough(ctx: Context) -> RoughStock:
+    """Post and verify the rough programs on the blank; the verified stock.
 
     The rough APT files are posted as the post stage will (same dialect and names,
     into ``verify/rough/nc/``) and verified with the roughing tool on the spec's blank
     at ``verify_resolution_mm``, allowance ``rough_allowance``, rendering the last
     stock only (as the verify stage does), into ``verify/rough/`` (replaced as a whole
-    on success).
+    on success). The design (the spec's impeller and its signed distance) is built
+    once here and handed on with the stock's path, for finishing to reuse.
     """
     from cam.verify.command import VerifyOptions, run_verify
     from cam.verify.deviation import DesignDistance, save_deviation
-    from cam.verify.sources import load_design
+    from geometry.impeller import Impeller
     from postproc.command import post_text
     from postproc.machine import load_machine
     from postproc.posts import get_post
@@ -57,6 +83,10 @@ def verify_rough(ctx: Context) -> Path:
     rough = read_json(ctx, "rough/rough.json", "rough")
     target = ctx.out / ROUGH_VERIFY
     target.parent.mkdir(parents=True, exist_ok=True)
+    design = Impeller.from_spec(ctx.spec)
+    mesh = design.mesh()  # run_verify's design mesh (cam.verify.sources.load_design)
+    distance = DesignDistance(np.asarray(mesh.vertices, np.float64),
+                              np.asarray(mesh.faces, np.int64))
     stage = Path(tempfile.mkdtemp(prefix=".rough-staging-", dir=target.parent))
     try:
         programs = []
@@ -66,8 +96,6 @@ def verify_rough(ctx: Context) -> Path:
             nc = stage / "nc" / f"{Path(op['apt']).stem}.{dialect.extension}"
             write_text_atomic(nc, post_text(apt, ctx.machine, post=dialect.name))
             programs.append(nc)
-        vertices, faces, _ = load_design(ctx.spec)
-        distance = DesignDistance(vertices, faces)
         deviation = run_verify(
             programs, ctx.machine, ctx.settings.rough_tool, str(ctx.spec), ctx.spec,
             ctx.settings.verify_resolution_mm, stage,
@@ -80,7 +108,7 @@ def verify_rough(ctx: Context) -> Path:
         shutil.rmtree(stage, ignore_errors=True)
         raise
     replace_path(stage, target)
-    return target / "stock.npz"
+    return RoughStock(target / "stock.npz", design, distance)
 
 
 def reusable_rough(ctx: Context) -> Path | None:

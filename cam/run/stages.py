@@ -133,15 +133,17 @@ def fillet_tool(ctx: Context) -> str | None:
 def finish_stage(ctx: Context) -> None:
     """The rough programs verified (``verify_rough``), then five-axis finishing
     (``run_finish``) with the finishing tool (``finish_options``) against that stock,
-    and the fillet pencil passes with ``fillet_tool``."""
+    and the fillet pencil passes with ``fillet_tool``; both runs share one design (the
+    spec's impeller and its signed distance, built once)."""
     from cam.finishing.command import run_finish
     from cam.finishing.options import FinishOptions
     from cam.run.rough_stock import verify_rough
 
-    stock = verify_rough(ctx)
+    rough = verify_rough(ctx)
     run_finish(ctx.spec, ctx.machine, ctx.settings.finish_tool, ctx.out / "finish",
                options=FinishOptions.from_mapping(finish_options(ctx)), progress=False,
-               fillet_tool=fillet_tool(ctx), stock=stock)
+               fillet_tool=fillet_tool(ctx), stock=rough.path, design=rough.design,
+               design_distance=rough.distance)
 
 
 def apt_files(ctx: Context) -> list[tuple[str, str, str]]:

@@ -322,3 +322,44 @@ def test_the_neck_lean_clears_the_blade_by_the_clearance() -> None:
         2.5 + NECK_MARGIN)
     assert neck_lean(tool, 0.0) == pytest.approx(math.radians(LEAN_DEG))
     assert neck_lean(tool, 20.0) == pytest.approx(math.radians(MAX_LEAN_DEG))
+
+
+def test_the_passage_hints_leave_the_fillet_passes_unchanged(
+        library: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each pass hands its eq. 7 remedy step to its rotation in the next passage
+    (``fillet_plan._finish_all``); a hint is proven before it is taken, so the
+    passes are those planned without hints, posture for posture."""
+    from cam.collision import CollisionScene
+    from cam.finishing import fillet_plan
+    from cam.finishing.options import FinishOptions
+    from cam.finishing.scene import surface_meshes
+    from postproc.kinematics import kinematics_for
+    from postproc.machine import load_machine
+
+    surfaces = build_surfaces(load_spec(IMPELLERS / "small" / "spec.toml"))
+    scene = CollisionScene(surface_meshes(surfaces, 1.0))
+    kins = kinematics_for(load_machine(MACHINE))
+    tool = resolve_tool(f"{library}:ball1.6_taper")
+    options = FinishOptions(passages=2, scallop_mm=0.2, point_spacing_mm=1.0)
+    original = fillet_plan.finish_runs
+    given: list[object] = []
+
+    def recorded(*args: object, hint: object = None, **kwargs: object) -> object:
+        given.append(hint)
+        return original(*args, hint=hint, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(fillet_plan, "finish_runs", recorded)
+    hinted = fillet_plan.plan_fillet(surfaces, tool, 2.0, kins, scene, options,
+                                     scene_source="surfaces")
+    monkeypatch.setattr(fillet_plan, "finish_runs",
+                        lambda *a, hint=None, **k: original(*a, **k))
+    plain = fillet_plan.plan_fillet(surfaces, tool, 2.0, kins, scene, options,
+                                    scene_source="surfaces")
+    # the second passage's passes were handed their first passage's step
+    assert sum(h is not None for h in given) >= len(given) // 4
+    assert [p.path.name for p in hinted.paths] == [p.path.name for p in plain.paths]
+    for a, b in zip(hinted.paths, plain.paths, strict=True):
+        np.testing.assert_array_equal(a.tip, b.tip)
+        np.testing.assert_array_equal(a.axis, b.axis)
+        assert a.interference.steps == b.interference.steps
+    assert hinted.extra["cut_short"] == plain.extra["cut_short"]
