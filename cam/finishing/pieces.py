@@ -8,10 +8,12 @@ normal-angle or lead/tilt rule. Such postures are never cut:
 * the pass is shortened at either end past its offending postures (``finish_trimmed``,
   at most ``TRIM_ROUNDS`` times, never below half its points);
 * postures still offending inside it are left out and the pass is cut into the runs
-  between them (each of at least ``MIN_PIECE`` points), each finished again and kept
-  only if it is clean (a run that offends again is cut once more: ``_recovered``);
-* the clean runs of what the trimming cut off either end are finished as pieces of
-  their own, kept only if clean.
+  between them (each of at least ``MIN_PIECE`` points); a run keeps the pass plan's
+  postures when they are clean checked on their own (``kept_run``), else it is
+  finished again and kept only if it is clean (a run that offends again is cut once
+  more: ``_recovered``);
+* the clean runs of what the trimming cut off either end (in the whole pass's plan)
+  likewise become pieces of their own, kept only if clean.
 
 The pieces are named ``<name>.<k>`` (``PathResult.piece_of`` names the pass; order.py
 enters each piece after the first from the air), and every point left out is listed
@@ -31,6 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam.finishing.interference import StepHint
+from cam.finishing.kept_run import kept_run
 from cam.finishing.options import FinishOptions
 from cam.finishing.paths import CutterPath, subset_path
 from cam.finishing.plan import PathResult, finish_path
@@ -67,11 +70,12 @@ def _piece(path: CutterPath, index: NDArray[np.intp]) -> CutterPath:
 def _trimmed(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionScene,
              options: FinishOptions, surfaces: ImpellerSurfaces | None,
              hint: StepHint | None = None
-             ) -> tuple[PathResult, NDArray[np.intp], NDArray[np.intp]]:
-    """``finish_trimmed``, the indices (into ``path``) of the points it kept and the
+             ) -> tuple[PathResult, NDArray[np.intp], NDArray[np.intp], PathResult]:
+    """``finish_trimmed``, the indices (into ``path``) of the points it kept, the
     offending postures of the whole pass's plan (an open-ended pass's tail that
-    ``finish_path`` cut counts as offending)."""
+    ``finish_path`` cut counts as offending) and that plan."""
     result = finish_path(path, tool, kins, scene, options, surfaces, hint)
+    plan = result
     length = len(path)
     whole = np.union1d(offenders(result),
                        np.arange(len(result.path), length, dtype=np.intp))
@@ -91,7 +95,7 @@ def _trimmed(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionSce
         result = finish_path(_piece(result.path, keep), tool, kins, scene, options,
                              surfaces)
     result.trimmed = length - len(result.path)
-    return result, kept, whole
+    return result, kept, whole, plan
 
 
 def finish_trimmed(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionScene,
@@ -116,22 +120,28 @@ def _runs(good: NDArray[np.bool_]) -> list[NDArray[np.intp]]:
 def _recovered(path: CutterPath, index: NDArray[np.intp], tool: Tool, kins: Kinematics,
                scene: CollisionScene, options: FinishOptions,
                surfaces: ImpellerSurfaces | None, accept: Accept,
-               result: PathResult | None = None) -> list[tuple[NDArray[np.intp], PathResult]]:
+               larger: tuple[PathResult, NDArray[np.intp]] | None = None
+               ) -> list[tuple[NDArray[np.intp], PathResult]]:
     """Clean pieces of the points ``index`` of ``path`` (a run of postures found clean
     in a larger plan).
 
-    The run is finished on its own (``result``: already done); where postures still
-    break a rule it is cut there once more and the runs between are finished again.
-    Only pieces that keep every rule (and that ``accept``, when given) are returned,
-    with their indices into ``path``: a piece adds cut, never an offence.
+    The run keeps the larger plan's postures when they pass every check on their own
+    (``larger``: that plan and the run's indices into its path; ``kept_run``).
+    Otherwise it is finished on its own; where postures still break a rule it is cut
+    there once more and the runs between are finished again. Only pieces that keep
+    every rule (and that ``accept``, when given) are returned, with their indices into
+    ``path``: a piece adds cut, never an offence.
     """
     def clean(piece: PathResult) -> bool:
         return not offenders(piece).size and (accept is None or accept(piece))
 
     if len(index) < MIN_PIECE:
         return []
-    if result is None:
-        result = finish_path(_piece(path, index), tool, kins, scene, options, surfaces)
+    if larger is not None:
+        kept = kept_run(larger[0], larger[1], tool, scene, options, surfaces)
+        if clean(kept):
+            return [(index, kept)]
+    result = finish_path(_piece(path, index), tool, kins, scene, options, surfaces)
     bad = offenders(result)
     if not bad.size:
         return [(index, result)] if clean(result) else []
@@ -172,7 +182,7 @@ def finish_runs(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collision
     lost : (k,) intp
         Points of ``path`` left out.
     """
-    result, kept, whole = _trimmed(path, tool, kins, scene, options, surfaces, hint)
+    result, kept, whole, plan = _trimmed(path, tool, kins, scene, options, surfaces, hint)
     bad = offenders(result)
     pieces = [(kept, result)]
     if bad.size:
@@ -180,7 +190,7 @@ def finish_runs(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collision
         good[bad] = False
         pieces = [found for run in _runs(good)
                   for found in _recovered(path, kept[run], tool, kins, scene, options,
-                                          surfaces, None)]
+                                          surfaces, None, (result, run))]
     # the clean runs (in the whole pass's plan) of each end the trimming cut off
     clean = np.ones(len(path), dtype=bool)
     clean[whole] = False
@@ -189,7 +199,7 @@ def finish_runs(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collision
                                 np.arange(int(kept[-1]) + 1, len(path), dtype=np.intp))):
         for run in _runs(clean[cut]):
             ends[side] += _recovered(path, cut[run], tool, kins, scene, options, surfaces,
-                                     accept)
+                                     accept, (plan, cut[run]))
     pieces = ends[0] + pieces + ends[1]
     covered = np.concatenate([index for index, _ in pieces] or [np.zeros(0, np.intp)])
     lost = np.setdiff1d(np.arange(len(path), dtype=np.intp), covered)

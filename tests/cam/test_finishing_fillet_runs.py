@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from cam.finishing import pieces as pieces_mod
-from cam.finishing.paths import CutterPath
+from cam.finishing.paths import CutterPath, subset_path
 from cam.finishing.pieces import cut_short_entry, finish_runs
 
 
@@ -48,6 +48,9 @@ def _run(monkeypatch: pytest.MonkeyPatch, n: int, blocked: set[float],
          accept: Any = None) -> tuple[list[Any], np.ndarray, list[list[float]]]:
     calls: list[list[float]] = []
     monkeypatch.setattr(pieces_mod, "finish_path", _stand_in(blocked, calls))
+    again = _stand_in(blocked, [])
+    monkeypatch.setattr(pieces_mod, "kept_run",
+                        lambda result, run, *_: again(subset_path(result.path, run)))
     pieces, lost = finish_runs(_path(n), None, None, None, None, None,  # type: ignore[arg-type]
                                accept=accept)
     return pieces, lost, calls
@@ -189,6 +192,11 @@ def test_a_piece_that_offends_again_is_cut_again(monkeypatch: pytest.MonkeyPatch
     calls: list[list[float]] = []
     monkeypatch.setattr(pieces_mod, "finish_path",
                         _stand_in_by_call([{2.0, 8.0, 12.0}, {5.0}], calls))
+    # the whole plan's postures of each run break a rule checked on their own: each
+    # run is planned again (kept_run falls back to finish_path)
+    everywhere = _stand_in(set(map(float, range(14))), [])
+    monkeypatch.setattr(pieces_mod, "kept_run",
+                        lambda result, run, *_: everywhere(subset_path(result.path, run)))
     pieces, lost = finish_runs(_path(14), None, None, None, None, None)  # type: ignore[arg-type]
     runs = [p.path.centre[:, 0].astype(int).tolist() for p in pieces]
     assert runs == [[0, 1], [3, 4], [6, 7], [9, 10, 11]]
