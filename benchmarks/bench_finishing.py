@@ -130,6 +130,7 @@ def child(out: Path, tool: str, options: dict[str, Any]) -> None:
     if options.pop("edge_only", False):
         edge_child(spec, machine, tool, options)
         return
+    commit = tree_commit(tree)
     wall, cpu = time.perf_counter(), time.process_time()
     doc = run_finish(spec, machine, tool, out, progress=False, plots=False, **options)
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
@@ -139,7 +140,19 @@ def child(out: Path, tool: str, options: dict[str, Any]) -> None:
                       "motion_collisions": s["motion_collisions"],
                       "link_collisions": doc["link_collisions"],
                       "min_clearance_mm": s["min_clearance_mm"],
-                      "cam": __import__("cam").__file__}))
+                      "cam": __import__("cam").__file__, "commit": commit}))
+
+
+def tree_commit(tree: Path) -> str:
+    """The commit checked out at ``tree`` (``+dirty`` with uncommitted changes to
+    tracked files), read when the child starts planning: the code it runs."""
+    def git(*args: str) -> str:
+        done = subprocess.run(["git", "-C", str(tree), *args], capture_output=True,
+                              text=True, check=False)
+        return done.stdout.strip()
+
+    dirty = bool(git("status", "--porcelain", "--untracked-files=no"))
+    return (git("rev-parse", "--short", "HEAD") or "unknown") + ("+dirty" if dirty else "")
 
 
 def run_side(code: Path, out: Path, cache: Path, tool: str, options: dict[str, Any],
@@ -285,6 +298,7 @@ def main() -> None:
                   f"{s['points'] / s['cpu']:>8.0f} {rev:>7} {s['collisions']:>5} "
                   f"{s['motion_collisions']:>6} {s['link_collisions']:>5} "
                   f"{s['min_clearance_mm']!s:>9}")
+        print("code:", ", ".join(f"{name} {s.get('commit', '?')}" for name, s in sides.items()))
         if "baseline" in sides:
             old, new = sides["baseline"], sides["new"]
             print(f"speed-up: wall {old['wall'] / new['wall']:.1f}x, "

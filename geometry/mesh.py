@@ -48,10 +48,12 @@ def triangulate_faces(
         poly = BRep_Tool.Triangulation_s(face, location)
         if poly is None:
             raise RuntimeError("a face could not be triangulated")
-        transform = location.Transformation()
-        nodes = np.array(
-            [poly.Node(i).Transformed(transform).Coord() for i in range(1, poly.NbNodes() + 1)]
-        )
+        if location.IsIdentity():  # Transformed by the identity is the point itself
+            nodes = np.array([poly.Node(i).Coord() for i in range(1, poly.NbNodes() + 1)])
+        else:
+            transform = location.Transformation()
+            nodes = np.array([poly.Node(i).Transformed(transform).Coord()
+                              for i in range(1, poly.NbNodes() + 1)])
         tris = np.array(
             [poly.Triangle(i).Get() for i in range(1, poly.NbTriangles() + 1)], dtype=np.int64
         ) - 1
@@ -114,8 +116,13 @@ def _shortest_edge(vertices: NDArray[np.float64], triangles: NDArray[np.int64]) 
 def _manifold(faces: NDArray[np.int64]) -> bool:
     """Every edge is used by exactly two triangles, once in each direction."""
     directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    _, counts = np.unique(np.sort(directed, axis=1), axis=0, return_counts=True)
-    _, once = np.unique(directed, axis=0, return_counts=True)
+    if not len(directed):
+        return True
+    # an edge (a, b) as the one integer a * base + b: unique rows, 1-D and faster
+    base = np.int64(directed.max()) + 1
+    low, high = directed.min(axis=1), directed.max(axis=1)
+    _, counts = np.unique(low * base + high, return_counts=True)
+    _, once = np.unique(directed[:, 0] * base + directed[:, 1], return_counts=True)
     return bool(np.all(counts == 2) and np.all(once == 1))
 
 
