@@ -169,20 +169,24 @@ def _stock_scene(the_stock: Stock, impeller: Any, design: CollisionScene,
     return StockScene(design, excess)
 
 
-def _engagement(scene: StockScene, result: FinishResult, entries: list[dict[str, Any]]
-                ) -> dict[str, Any]:
-    """Per path ``stock_engagement`` in ``entries``; finish.json's ``stock`` entry."""
+def _engagement(scene: StockScene, result: FinishResult, entries: list[dict[str, Any]],
+                tools: dict[str, Tool]) -> dict[str, Any]:
+    """Per path ``stock_engagement`` in ``entries``; finish.json's ``stock`` entry.
+
+    Each path is measured with the tool of its operation (``tools``; the fillet
+    pencil's ball for the fillet passes), else ``result.tool``."""
     total = 0
     deepest = -math.inf
     blocked_paths = []
     options = result.options
     for entry, path in zip(entries, result.paths, strict=True):
-        depth, over = engagement(scene.excess, result.tool, path.tip, path.axis)
+        tool = tools.get(path.path.operation, result.tool)
+        depth, over = engagement(scene.excess, tool, path.tip, path.axis)
         found = depth[np.isfinite(depth)]
         # of the postures still interfering, those the stock blocks (contact, or
         # shank/holder closer than stock_clearance_mm to it)
         bad = path.interference.interfering_points
-        blocked = bad[stock_blocked(scene, result.tool, path.tip[bad], path.axis[bad],
+        blocked = bad[stock_blocked(scene, tool, path.tip[bad], path.axis[bad],
                                     options.cutter_allowance_mm,
                                     options.stock_clearance_mm)]
         entry["stock_engagement"] = {
@@ -404,7 +408,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
     entries = summary.pop("path_entries")
     summary["left_out_points"] = int(sum(len(e["left_out"]) for e in cut_short))
     summary["dropped_paths"] = [e["path"] for e in cut_short if e["dropped"]]
-    stock_entry = (_engagement(stock_scene, result, entries)
+    stock_entry = (_engagement(stock_scene, result, entries, tools)
                    if stock_scene is not None else None)
     machine_entry = (None if obstacle is None
                      else _machine_entry(obstacle, result, entries, toolpaths, tools))
