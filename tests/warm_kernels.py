@@ -7,9 +7,8 @@ kernels it reaches before another has written them, the two workers often the sa
 kernels at the same time (measured: ``test_verify_engine`` and ``test_roughing_blank``
 take 39 s of a core on a cold cache, 6 s on a warm one). ``scripts/test`` runs this
 module while mypy runs (mypy uses one core), so the tests start with the chain's
-kernels compiled once: the small fixture's chain, one passage roughed and finished,
-with the chain test's coarse settings, through every stage that calls kernels
-(geometry, rough, finish, post, verify, motion), into a temporary folder.
+kernels compiled once: ``cam.run.warm`` (the small fixture's chain, one passage, the
+chain test's coarse settings, every stage that calls kernels) on the tests' machine.
 
 Usage: ``python -m tests.warm_kernels`` (prints the seconds it took).
 """
@@ -21,25 +20,14 @@ import tempfile
 import time
 from pathlib import Path
 
-from tests.cam.conftest import CHAIN_MACHINE, ONE_PASSAGE_SETTINGS, SMALL_SPEC
-
-#: The stages whose code calls numba kernels (the report only reads their outputs).
-STAGES = ("geometry", "rough", "finish", "post", "verify", "motion")
-
-
-def warm(out: Path) -> None:
-    """Run the warm-up chain into ``out`` (a folder that need not exist)."""
-    from cam.run import run_chain
-
-    for stage in STAGES:
-        run_chain(SMALL_SPEC, CHAIN_MACHINE, out, only=stage, progress=False,
-                  **ONE_PASSAGE_SETTINGS)
+from cam.run.warm import warm
+from tests.cam.conftest import CHAIN_MACHINE
 
 
 def main() -> int:
     start = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="impeller-cam-warm-") as folder:
-        warm(Path(folder) / "small")
+        warm(Path(folder) / "small", CHAIN_MACHINE)
     print(f"numba kernels warmed in {time.monotonic() - start:.0f} s", file=sys.stderr)
     return 0
 

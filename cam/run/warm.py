@@ -1,0 +1,84 @@
+"""Compile the chain's numba kernels ahead of a run, on a spare core.
+
+The kernels are ``numba.njit(cache=True)``: a process compiles a kernel at its first
+call unless ``__pycache__`` holds it already. On a fresh clone the main job would
+compile the finish, verify and motion stages' kernels when it reaches them (tens of
+seconds of one core each), while during the geometry and rough stages, which run on
+one core, the second core is idle. ``scripts/demo`` starts this module in the
+background (``nice``) beside the chain: it runs the small fixture's chain, one passage
+at coarse settings, through every stage that calls kernels, into a temporary folder,
+so that the later stages of the real run find their kernels compiled. The test
+script does the same beside mypy (``tests/warm_kernels.py``).
+
+Usage: ``python -m cam.run.warm [MACHINE.toml]`` (default trunnion-500 with its
+machine model); prints the seconds it took, or why it did nothing.
+"""
+
+from __future__ import annotations
+
+import signal
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+__all__ = ["SMALL_SPEC", "STAGES", "WARM_SETTINGS", "warm"]
+
+ROOT = Path(__file__).resolve().parents[2]
+#: The smallest bundled design (a checkout's fixtures; absent from a wheel install).
+SMALL_SPEC = ROOT / "fixtures" / "impellers" / "small" / "spec.toml"
+#: The machine warmed with when none is given.
+TRUNNION = ROOT / "fixtures" / "machines" / "trunnion-500.toml"
+#: The stages whose code calls numba kernels (the report only reads their outputs).
+STAGES = ("geometry", "rough", "finish", "post", "verify", "motion")
+#: Coarse settings, one passage roughed and finished (the chain test's).
+WARM_SETTINGS: dict[str, Any] = {
+    "rough_tool": "ball6",
+    "finish_tool": "ball4_taper",
+    "rough": {"scallop_mm": 1.0, "step_along_mm": 2.0, "passages": 1},
+    "finish": {"scallop_mm": 0.8, "point_spacing_mm": 1.5, "passages": 1},
+    "verify_resolution_mm": 0.3,
+    "tessellation_mm": 0.05,
+}
+
+
+def warm(out: Path, machine: Path = TRUNNION, spec: Path = SMALL_SPEC) -> None:
+    """Run the warm-up chain into ``out`` (a folder that need not exist).
+
+    Parameters
+    ----------
+    out : Path
+        Output folder of the warm-up chain (its files are of no use afterwards).
+    machine : Path
+        Machine file: the one of the run to come, so that the machine-model kernels
+        are compiled too when it has a model.
+    spec : Path
+        Impeller spec to run (the small fixture).
+    """
+    from cam.run import run_chain
+
+    for stage in STAGES:
+        run_chain(spec, machine, out, only=stage, progress=False, **WARM_SETTINGS)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m cam.run.warm [MACHINE.toml]``."""
+    args = sys.argv[1:] if argv is None else argv
+    machine = Path(args[0]) if args else TRUNNION
+    if not SMALL_SPEC.is_file() or not machine.is_file():
+        print(f"numba kernels not warmed: {SMALL_SPEC if not SMALL_SPEC.is_file() else machine}"
+              " not found", file=sys.stderr)
+        return 0
+    # killed when the run it serves ends: leave through SystemExit, so that the
+    # temporary folder is removed
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
+    start = time.monotonic()
+    with tempfile.TemporaryDirectory(prefix="impeller-cam-warm-") as folder:
+        warm(Path(folder) / "small", machine)
+    print(f"numba kernels warmed in {time.monotonic() - start:.0f} s", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

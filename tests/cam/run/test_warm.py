@@ -1,0 +1,22 @@
+"""``python -m cam.run.warm``: nothing to warm with is said, not an error."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from cam.run import warm
+
+
+def test_a_missing_machine_is_reported_and_nothing_runs(tmp_path: Path,
+                                                        capsys: pytest.CaptureFixture[str]
+                                                        ) -> None:
+    missing = tmp_path / "no-machine.toml"
+    assert warm.main([str(missing)]) == 0
+    assert f"numba kernels not warmed: {missing} not found" in capsys.readouterr().err
+
+
+def test_the_warm_up_spec_and_machine_are_the_checkouts() -> None:
+    assert warm.SMALL_SPEC.is_file() and warm.TRUNNION.is_file()
+    assert warm.STAGES[0] == "geometry" and "report" not in warm.STAGES
