@@ -211,3 +211,32 @@ def test_a_pass_end_whose_holder_collides_is_left_without_gouging_the_overhang()
     found = linker.escape(tip, up, away)
     assert found is not None
     np.testing.assert_allclose(found[0], tip + r.departure * up, atol=1e-12)
+
+
+@pytest.mark.parametrize(("step_mm", "feed"), [(1.0, True), (3.0, False)])
+def test_a_stepover_chord_may_not_dip_into_a_convex_surface(step_mm: float,
+                                                            feed: bool) -> None:
+    """Two pass ends on a cylinder of radius 30 (axis along x), the tool along the
+    normal: the tip's straight chord between them dips ``c**2 / (8 R)`` into it (1 mm:
+    0.004 mm, within the stepover's 0.01 mm; 3 mm: 0.0375 mm, which the cutting
+    allowance of 0.05 mm would have let through and the verifier at 0.1 mm nearly
+    flags). The short stepover is a feed move, the long one is not."""
+    radius = 30.0
+    body = trimesh.creation.cylinder(radius=radius, height=80.0, sections=1440)
+    body.apply_transform(trimesh.transformations.rotation_matrix(math.pi / 2, [0, 1, 0]))
+    assert abs(float(body.bounds[1][0]) - 40.0) < 1e-9  # axis along x
+    ends = []
+    for phi in (0.3, 0.3 + step_mm / radius):
+        normal = np.array([0.0, math.sin(phi), math.cos(phi)])
+        tip = np.array([[x, *(radius * normal[1:])] for x in np.linspace(-5.0, 5.0, 6)])
+        ends.append((tip, np.tile(normal, (len(tip), 1)), normal))
+    a_tip, a_axis, a_normal = ends[0]
+    b_tip, b_axis, b_normal = ends[1][0][::-1], ends[1][1], ends[1][2]
+    qa, qb = KINS.inverse(a_tip, a_axis), KINS.inverse(b_tip, b_axis)
+    first = PassEnds("pass 0", a_tip, a_axis, a_normal, a_normal, qa[0], qa[-1])
+    second = PassEnds("pass 1", b_tip, b_axis, b_normal, b_normal, qb[0], qb[-1])
+    linker = _linker(CollisionScene({"blade": body}))
+    linker = Linker(linker.scene, KINS, replace(linker.rules, feed_link=5.0))
+    dip = step_mm ** 2 / (8.0 * radius)
+    assert (dip < 0.01) == feed and dip < 0.05
+    assert linker.feed_link(first, second) is feed
