@@ -8,7 +8,8 @@ kernels at the same time (measured: ``test_verify_engine`` and ``test_roughing_b
 take 39 s of a core on a cold cache, 6 s on a warm one). ``scripts/test`` runs this
 module while mypy runs (mypy uses one core), so the tests start with the chain's
 kernels compiled once: ``cam.run.warm`` (the small fixture's chain, one passage, the
-chain test's coarse settings, every stage that calls kernels) on the tests' machine.
+chain test's coarse settings, every stage that calls kernels, on the tests' machine:
+trunnion-500 without its model, ``tests.cam.conftest.CHAIN_MACHINE``).
 
 Usage: ``python -m tests.warm_kernels`` (prints the seconds it took).
 """
@@ -16,21 +17,8 @@ Usage: ``python -m tests.warm_kernels`` (prints the seconds it took).
 from __future__ import annotations
 
 import sys
-import tempfile
-import time
-from pathlib import Path
 
-from cam.run.warm import warm
-from tests.cam.conftest import CHAIN_MACHINE
-
-
-def main() -> int:
-    start = time.monotonic()
-    with tempfile.TemporaryDirectory(prefix="impeller-cam-warm-") as folder:
-        warm(Path(folder) / "small", CHAIN_MACHINE)
-    print(f"numba kernels warmed in {time.monotonic() - start:.0f} s", file=sys.stderr)
-    return 0
-
+from cam.run.warm import main
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main([]))

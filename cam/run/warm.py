@@ -10,8 +10,8 @@ at coarse settings, through every stage that calls kernels, into a temporary fol
 so that the later stages of the real run find their kernels compiled. The test
 script does the same beside mypy (``tests/warm_kernels.py``).
 
-Usage: ``python -m cam.run.warm [MACHINE.toml]`` (default trunnion-500 with its
-machine model); prints the seconds it took, or why it did nothing.
+Usage: ``python -m cam.run.warm [MACHINE.toml]`` (default trunnion-500); prints the
+seconds it took, or why it did nothing.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-__all__ = ["SMALL_SPEC", "STAGES", "WARM_SETTINGS", "warm"]
+__all__ = ["SMALL_SPEC", "STAGES", "WARM_SETTINGS", "warm", "without_model"]
 
 ROOT = Path(__file__).resolve().parents[2]
 #: The smallest bundled design (a checkout's fixtures; absent from a wheel install).
@@ -43,6 +43,32 @@ WARM_SETTINGS: dict[str, Any] = {
 }
 
 
+def without_model(machine: Path) -> Path:
+    """A copy of a machine file without its ``[model]`` tables (the last ones in the
+    file), written once into the temp folder (the same bytes from every process).
+
+    The small fixture at coarse settings roughs on trunnion-500's kinematics but not
+    past its machine model (no orientation of the inlet UMR keeps the head clear of
+    the table), so the warm-up and the chain tests run without the model.
+    """
+    from impeller_cam.atomic import write_text_atomic
+
+    lines = machine.read_text().splitlines(keepends=True)
+    cut = next((i for i, line in enumerate(lines)
+                if line.startswith(("[model", "[[model"))), len(lines))
+    rest = [line for line in lines[cut:] if line.startswith("[")
+            and not line.startswith(("[model", "[[model"))]
+    if rest:
+        raise ValueError(f"{machine}: tables after [model]: {rest}")
+    folder = Path(tempfile.gettempdir()) / "impeller-cam-tests"
+    folder.mkdir(exist_ok=True)
+    copy = folder / f"{machine.stem}-without-model.toml"
+    text = "".join(lines[:cut])
+    if not copy.is_file() or copy.read_text() != text:
+        write_text_atomic(copy, text)
+    return copy
+
+
 def warm(out: Path, machine: Path = TRUNNION, spec: Path = SMALL_SPEC) -> None:
     """Run the warm-up chain into ``out`` (a folder that need not exist).
 
@@ -51,15 +77,15 @@ def warm(out: Path, machine: Path = TRUNNION, spec: Path = SMALL_SPEC) -> None:
     out : Path
         Output folder of the warm-up chain (its files are of no use afterwards).
     machine : Path
-        Machine file: the one of the run to come, so that the machine-model kernels
-        are compiled too when it has a model.
+        Machine file (its kinematics; run without its ``[model]``: ``without_model``).
     spec : Path
         Impeller spec to run (the small fixture).
     """
     from cam.run import run_chain
 
+    bare = without_model(machine)
     for stage in STAGES:
-        run_chain(spec, machine, out, only=stage, progress=False, **WARM_SETTINGS)
+        run_chain(spec, bare, out, only=stage, progress=False, **WARM_SETTINGS)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -24,30 +24,11 @@ from typing import Any
 
 import pytest
 
+from cam.run.warm import without_model
+
 ROOT = Path(__file__).resolve().parents[2]
 SMALL_SPEC = ROOT / "fixtures" / "impellers" / "small" / "spec.toml"
 TRUNNION = ROOT / "fixtures" / "machines" / "trunnion-500.toml"
-
-
-def without_model(machine: Path) -> Path:
-    """A copy of a machine file without its ``[model]`` tables (the last ones in the
-    file), written once into the temp folder (same bytes from every xdist worker)."""
-    import tempfile
-
-    from impeller_cam.atomic import write_text_atomic
-
-    lines = machine.read_text().splitlines(keepends=True)
-    cut = next(i for i, line in enumerate(lines) if line.startswith(("[model", "[[model")))
-    rest = [line for line in lines[cut:] if line.startswith("[")
-            and not line.startswith(("[model", "[[model"))]
-    assert not rest, f"{machine}: tables after [model]: {rest}"
-    folder = Path(tempfile.gettempdir()) / "impeller-cam-tests"
-    folder.mkdir(exist_ok=True)
-    copy = folder / f"{machine.stem}-without-model.toml"
-    text = "".join(lines[:cut])
-    if not copy.is_file() or copy.read_text() != text:
-        write_text_atomic(copy, text)
-    return copy
 
 
 CHAIN_MACHINE = without_model(TRUNNION)
