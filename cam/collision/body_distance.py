@@ -380,7 +380,9 @@ def body_distances(
         return np.zeros(0), np.zeros(0)
     lo, hi = _body_distances(
         tris, tri_centre, tri_radius, tri_slab, node_lo, node_hi, node_slab, left, first, size,
-        np.ascontiguousarray(roots, dtype=np.int64),
+        # writable too: a read-only ``roots`` (a broadcast view) is another signature,
+        # compiled a second time on a cold cache
+        np.require(roots, np.int64, ("C", "W")),
         np.ascontiguousarray(tip, dtype=np.float64),
         np.ascontiguousarray(rot, dtype=np.float64),
         np.ascontiguousarray(shape.pieces, dtype=np.float64),

@@ -378,10 +378,11 @@ def _distances_within(
     lower = np.empty(STACK)
     none = np.zeros((0, 2))
     zero = np.zeros(3)
+    root = int(np.int64(0))  # typed int64, not Literal[int](0): no second signature
     for q in range(points.shape[0]):
         out[q] = nearest_within(
             points[q, 0], points[q, 1], points[q, 2], reach, -1.0, tris, tri_centre,
-            tri_radius, tri_slab, node_lo, node_hi, node_slab, left, first, size, 0, stack,
+            tri_radius, tri_slab, node_lo, node_hi, node_slab, left, first, size, root, stack,
             lower, none, zero, zero, 0.0,
         )[0]
     return out

@@ -486,6 +486,7 @@ def run_rough(spec: str | Path, machine: str | Path, tool: str, out: str | Path,
 
             document["machine"] = check_machine_fit(
                 [stage / op["apt"] for op in document["operations"]], machine, the_machine,
-                kins, the_tool, spec, refuse=refuse_machine_collisions)
+                kins, the_tool, spec, refuse=refuse_machine_collisions,
+                scene=None if admissible is None else admissible.scene)
         write_text_atomic(stage / "rough.json", json.dumps(document, indent=2) + "\n")
     return document

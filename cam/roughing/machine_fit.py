@@ -50,8 +50,8 @@ def _sections(text: str) -> list[str]:
 
 
 def check_machine_fit(apt_files: list[Path], machine_path: str | Path, machine: Any,
-                      kins: Any, tool: Any, spec: str | Path, refuse: bool = False
-                      ) -> dict[str, Any] | None:
+                      kins: Any, tool: Any, spec: str | Path, refuse: bool = False,
+                      scene: Any = None) -> dict[str, Any] | None:
     """Post every APT file in memory and check it against the machine model.
 
     Parameters
@@ -69,6 +69,9 @@ def check_machine_fit(apt_files: list[Path], machine_path: str | Path, machine: 
         The impeller spec (its blank stands for the part).
     refuse : bool
         Raise on the first program with a machine collision (else report them).
+    scene : MachineScene, optional
+        The scene of ``machine``, ``tool`` and the spec's blank when the caller has
+        built it already (``machine_pose.orientation_check``'s); default: built here.
 
     Returns
     -------
@@ -93,8 +96,9 @@ def check_machine_fit(apt_files: list[Path], machine_path: str | Path, machine: 
     from postproc.command import post_text
     from postproc.nc_reader import parse_nc
 
-    part = part_solid(load_stock(str(spec), BLANK_PITCH))
-    scene = machine_scene(machine.model, tool, None, part=part)
+    if scene is None:
+        part = part_solid(load_stock(str(spec), BLANK_PITCH))
+        scene = machine_scene(machine.model, tool, None, part=part)
     best: dict[str, Any] = {"machine_clearance_mm": None, "programs_checked": len(apt_files)}
     problems: list[str] = []
     for apt in apt_files:

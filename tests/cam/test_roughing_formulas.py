@@ -189,6 +189,30 @@ def test_dropcutter_matches_brute_force_on_random_triangles() -> None:
     assert d.min() >= 1.5 - 1e-9
 
 
+def test_dropcutter_cells_hold_their_triangles_highest_first() -> None:
+    rng = np.random.default_rng(11)
+    tri = rng.uniform(-10, 10, (80, 3, 3))
+    tri[40:, :, 2] = np.round(tri[40:, :, 2])  # many equal tops: ties in the order
+    rho = 1.5
+    cutter = DropCutter(tri, rho)
+    lo = np.floor((tri[:, :, :2].min(axis=1) - rho - cutter.origin) / cutter.cell)
+    hi = np.minimum(np.floor((tri[:, :, :2].max(axis=1) + rho - cutter.origin) / cutter.cell),
+                    cutter.shape - 1)
+    top = tri[:, :, 2].max(axis=1)
+    for i in range(int(cutter.shape[0])):
+        for j in range(int(cutter.shape[1])):
+            c = i * int(cutter.shape[1]) + j
+            items = cutter.cell_items[cutter.cell_start[c]:cutter.cell_start[c + 1]]
+            want = np.flatnonzero((lo[:, 0] <= i) & (i <= hi[:, 0])
+                                  & (lo[:, 1] <= j) & (j <= hi[:, 1]))
+            assert sorted(items.tolist()) == want.tolist()
+            assert np.all(np.diff(top[items]) <= 0.0)
+    pts = rng.uniform(-12, 12, (300, 2))
+    slow = np.array([max(DropCutter(t[None], rho, cell=100.0).drop(p[None])[0] for t in tri)
+                     for p in pts])
+    assert np.array_equal(cutter.drop(pts), slow)
+
+
 def test_refine_moves_lifts_a_cutting_move_over_a_ridge() -> None:
     from cam.roughing.linking import refine_moves
     from postproc.toolpath import MoveKind
