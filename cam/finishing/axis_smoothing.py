@@ -16,8 +16,10 @@ posture and motion is checked again with the existing checks (``interference.che
 the posture rules of ``repair``): a posture whose smoothed version interferes or breaks
 a rule is held at its old value, with the smoothing faded out around it
 (``fade``), and the pass is checked again (a few rounds). A result that interferes
-where the old one did not, or with more reverse movements of A or C, is never kept:
-the old postures are.
+where the old one did not, with more reverse movements of A or C or with more moves
+turning faster than the pass allows (``posture.axis_breaks``), is never kept: the old
+postures are. The smoothing never reaches across such a fast move (a hub pass's side
+change in the air): the stretches between them are smoothed each on its own.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from numpy.typing import NDArray
 
 from cam.finishing.interference import InterferenceResult, check_path
 from cam.finishing.options import FinishOptions
+from cam.finishing.posture import axis_breaks
 from cam.finishing.repair import PostureRules, offenders
 from cam.finishing.reversals import count_reversals
 from cam.tools import Tool
@@ -186,9 +189,19 @@ def _reversals(joints: Array, deadband: float) -> int:
     return count_reversals(joints[:, 3], deadband) + count_reversals(joints[:, 4], deadband)
 
 
+def _target(arc: Array, rotary: Array, width: float, splits: NDArray[np.intp]) -> Array:
+    """``local_linear`` of each stretch between the moves ``splits`` (``i -> i + 1``)."""
+    out = rotary.copy()
+    bounds = np.concatenate([[0], splits + 1, [len(arc)]])
+    for first, end in zip(bounds[:-1], bounds[1:], strict=True):
+        if end - first >= 3:
+            out[first:end] = local_linear(arc[first:end], rotary[first:end], width)
+    return out
+
+
 def smooth_axis_rate(scene: CollisionScene, tool: Tool, kins: Kinematics, rules: PostureRules,
-                     inter: InterferenceResult, joints: Array, options: FinishOptions
-                     ) -> AxisSmoothing:
+                     inter: InterferenceResult, joints: Array, options: FinishOptions,
+                     max_turn: float = math.inf) -> AxisSmoothing:
     """Smooth the rate of A and C along one pass, never into a collision (module docstring).
 
     Parameters
@@ -205,6 +218,9 @@ def smooth_axis_rate(scene: CollisionScene, tool: Tool, kins: Kinematics, rules:
         Their joints (X Y Z mm, A C rad).
     options : FinishOptions
         ``axis_rate_smoothing_mm`` is the kernel width (0: off).
+    max_turn : float
+        Fastest turn of the axis along the pass, rad per mm of ball-centre path
+        (``posture.axis_breaks``); faster moves split the smoothing.
 
     Returns
     -------
@@ -217,7 +233,8 @@ def smooth_axis_rate(scene: CollisionScene, tool: Tool, kins: Kinematics, rules:
     unchanged = AxisSmoothing(inter, joints, empty, 0.0, before, before, "unchanged")
     if width <= 0 or len(arc) < 3:
         return unchanged
-    target = local_linear(arc, joints[:, 3:5], width)
+    splits = axis_breaks(rules.centre, inter.axis, max_turn)
+    target = _target(arc, joints[:, 3:5], width, splits)
     if np.abs(target - joints[:, 3:5]).max() < _NO_CHANGE:
         return unchanged
     deadband = math.radians(options.reversal_deadband_deg)
@@ -234,7 +251,8 @@ def smooth_axis_rate(scene: CollisionScene, tool: Tool, kins: Kinematics, rules:
         new_bad[offenders(checked, rules, options)] = True
         fresh = np.flatnonzero(new_bad & ~old_bad)
         if not fresh.size:
-            if _reversals(new_joints, deadband) > _reversals(joints, deadband):
+            if _reversals(new_joints, deadband) > _reversals(joints, deadband) or \
+                    len(axis_breaks(rules.centre, axis, max_turn)) > len(splits):
                 break
             change = float(np.degrees(np.abs(new_joints[:, 3:5] - joints[:, 3:5]).max()))
             return AxisSmoothing(checked, new_joints, held, change, before,

@@ -265,7 +265,9 @@ def _finish_once(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collisio
     if inter.smaller_tool_needed or rule_violations(inter.axis, rules, options).any():
         repair = repair_postures(scene, tool, kins, rules, inter, joints, options)
         inter, joints = repair.interference, repair.joints
-    smoothed = smooth_axis_rate(scene, tool, kins, rules, inter, joints, options)
+    max_turn = math.radians(  # hub: side changes in the air (axis_breaks below)
+        options.max_axis_turn_deg_per_mm if path.operation == "hub" else math.inf)
+    smoothed = smooth_axis_rate(scene, tool, kins, rules, inter, joints, options, max_turn)
     inter, joints = smoothed.interference, smoothed.joints
     rule_points = np.flatnonzero(rule_violations(inter.axis, rules, options))
     after = reversal_counts(joints, options)
@@ -279,8 +281,7 @@ def _finish_once(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collisio
     if surfaces is not None and path.operation == "junction":
         junction = junction_errors(path, centre_now, surfaces.hub, radius,
                                    surfaces.spec.pitch)
-    breaks = axis_breaks(centre_now, inter.axis, math.radians(  # hub: side changes in the air
-        options.max_axis_turn_deg_per_mm if path.operation == "hub" else math.inf))
+    breaks = axis_breaks(centre_now, inter.axis, max_turn)
     return PathResult(path, inter.tip, inter.axis, joints0, joints, before, after,
                       points_before, smoothing, inter, deviation, junction, lead, tilt,
                       angle_between(inter.axis, path.normal), repair, rule_points,

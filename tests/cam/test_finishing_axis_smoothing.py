@@ -23,6 +23,7 @@ from cam.finishing.axis_smoothing import (
 )
 from cam.finishing.interference import check_path
 from cam.finishing.options import FinishOptions
+from cam.finishing.posture import axis_breaks
 from cam.finishing.repair import PostureRules
 from cam.finishing.reversals import count_reversals
 from cam.tools import resolve_tool
@@ -141,14 +142,14 @@ class _LeanLimitScene:
     its lean grows by more than 0.05 deg over the original one (an obstacle just beside
     the original postures there). Motions never collide."""
 
-    def __init__(self, centre: np.ndarray, lean_deg: np.ndarray) -> None:
-        self.y, self.lean = centre[:, 1], lean_deg
+    def __init__(self, centre: np.ndarray, lean_deg: np.ndarray, margin: float = 0.05) -> None:
+        self.y, self.lean, self.margin = centre[:, 1], lean_deg, margin
 
     def check_postures(self, tool: Any, tip: np.ndarray, axis: np.ndarray,
                        **_: Any) -> _Report:
         lean = np.degrees(np.arctan2(axis[:, 1], axis[:, 2]))
         near = np.abs(tip[:, 1] + TOOL.radius * axis[:, 1]) <= 3.0 + 1e-9
-        bad = near & (lean > self.lean + 0.05)
+        bad = near & (lean > self.lean + self.margin)
         return _Report(bad, np.full(len(tip), np.nan), [None] * len(tip))
 
     def check_motion(self, tool: Any, tip: np.ndarray, axis: np.ndarray, **_: Any) -> _Report:
@@ -177,3 +178,28 @@ def test_a_smoothed_posture_that_collides_is_held_and_never_kept() -> None:
     # held postures keep their joints; far from them the pass is smoothed
     assert result.joints[result.held] == pytest.approx(joints[result.held], abs=1e-9)
     assert np.abs(result.joints[:, 3:5] - joints[:, 3:5]).max() > 1e-4
+
+
+def test_the_smoothing_never_reaches_across_a_fast_turn() -> None:
+    """A jump of the lean by 12 deg in one 1 mm move (a side change the hub passes make
+    in the air, ``max_turn`` 5 deg/mm) stays one move: the stretches either side are
+    smoothed on their own, the number of breaks is unchanged."""
+    kins = kinematics_for(load_machine(MACHINE))
+    options = FinishOptions()
+    centre, _, lean = _kinked_pass()
+    lean = lean + np.where(centre[:, 1] > 10.5, 12.0, 0.0)
+    rad = np.radians(lean)
+    axis = np.column_stack([np.zeros(len(rad)), np.sin(rad), np.cos(rad)])
+    scene: Any = _LeanLimitScene(centre, lean, margin=math.inf)
+    tip = centre - TOOL.radius * axis
+    inter = check_path(scene, TOOL, tip, axis, options)
+    joints = kins.inverse(tip, axis)
+    max_turn = math.radians(options.max_axis_turn_deg_per_mm)
+    before = axis_breaks(centre, axis, max_turn)
+    assert before.tolist() == [30]
+    result = smooth_axis_rate(scene, TOOL, kins, _rules(centre), inter, joints, options,
+                              max_turn)
+    assert result.status == "smoothed"
+    assert axis_breaks(centre, result.interference.axis, max_turn).tolist() == [30]
+    jump = np.degrees(result.joints[31, 3] - result.joints[30, 3])
+    assert abs(jump) == pytest.approx(12.0 + 2.0, abs=0.5)  # the step plus one move's rate
