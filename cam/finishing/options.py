@@ -108,6 +108,10 @@ class FinishOptions:
         split there: the tool lifts, turns in the air and comes back
         (``posture.axis_breaks``, finish.json ``axis_breaks``). nine_blade's hub
         passes turn by at most 1.47 deg/mm (docs/finishing.md).
+    axis_rate_smoothing_mm : float
+        Width of the smoothing of A and C against the ball-centre path length after the
+        repair (cam/finishing/axis_smoothing.py: the axis turns at a continuous rate;
+        changed postures are checked again), mm; 0: off.
     cutter_allowance_mm : float
         The ball is checked shrunk by this much so that it may touch the surfaces
         it cuts (must exceed the scene tessellation error), mm.
@@ -187,6 +191,7 @@ class FinishOptions:
     repair_blend_mm: float = 5.0
     repair_rounds: int = 6
     max_axis_turn_deg_per_mm: float = 5.0
+    axis_rate_smoothing_mm: float = 3.0
     cutter_allowance_mm: float = 0.05
     clearance_mm: float = DEFAULT_TOLERANCES.clearance
     stock_clearance_mm: float = DEFAULT_TOLERANCES.clearance
@@ -224,7 +229,7 @@ class FinishOptions:
                                  accepted="a finite number > 0")
         for name in ("c_tilt_deg", "cutter_allowance_mm", "clearance_mm", "repair_margin_mm",
                      "feed_link_mm", "stock_clearance_mm", "swarf_overcut_mm",
-                     "swarf_undercut_mm"):
+                     "swarf_undercut_mm", "axis_rate_smoothing_mm"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
                 raise InputError("must be a number >= 0", field=name, value=value,

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from cam.finishing.axis_smoothing import AxisSmoothing, smooth_axis_rate
 from cam.finishing.interference import InterferenceResult, StepHint, resolve_interference
 from cam.finishing.monotone_joints import (
     LINEAR,
@@ -133,6 +134,7 @@ class PathResult:
     step_hint: StepHint | None = None
     breaks: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
     piece_of: str | None = None
+    axis_smoothing: AxisSmoothing | None = None
 
     def summary(self, options: FinishOptions) -> dict[str, Any]:
         """This path's entry of finish.json (mm, deg)."""
@@ -182,6 +184,8 @@ class PathResult:
             "trimmed_points": self.trimmed,
             "axis_breaks": self.breaks.tolist(),
             "max_axis_turn_deg_per_mm": max_turn_deg_per_mm(self.path.centre, self.axis),
+            "axis_rate_smoothing": None if self.axis_smoothing is None
+            else self.axis_smoothing.summary(),
             "posture_repair": None if self.repair is None else {
                 "rounds": self.repair.rounds,
                 "tilted_points": self.repair.tilted.tolist(),
@@ -261,6 +265,10 @@ def _finish_once(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collisio
     if inter.smaller_tool_needed or rule_violations(inter.axis, rules, options).any():
         repair = repair_postures(scene, tool, kins, rules, inter, joints, options)
         inter, joints = repair.interference, repair.joints
+    max_turn = math.radians(  # hub: side changes in the air (axis_breaks below)
+        options.max_axis_turn_deg_per_mm if path.operation == "hub" else math.inf)
+    smoothed = smooth_axis_rate(scene, tool, kins, rules, inter, joints, options, max_turn)
+    inter, joints = smoothed.interference, smoothed.joints
     rule_points = np.flatnonzero(rule_violations(inter.axis, rules, options))
     after = reversal_counts(joints, options)
     centre_now = inter.tip + radius * inter.axis
@@ -273,12 +281,11 @@ def _finish_once(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collisio
     if surfaces is not None and path.operation == "junction":
         junction = junction_errors(path, centre_now, surfaces.hub, radius,
                                    surfaces.spec.pitch)
-    breaks = axis_breaks(centre_now, inter.axis, math.radians(  # hub: side changes in the air
-        options.max_axis_turn_deg_per_mm if path.operation == "hub" else math.inf))
+    breaks = axis_breaks(centre_now, inter.axis, max_turn)
     return PathResult(path, inter.tip, inter.axis, joints0, joints, before, after,
                       points_before, smoothing, inter, deviation, junction, lead, tilt,
                       angle_between(inter.axis, path.normal), repair, rule_points,
-                      step_hint=step_hint, breaks=breaks)
+                      step_hint=step_hint, breaks=breaks, axis_smoothing=smoothed)
 
 
 @dataclass
