@@ -42,7 +42,7 @@ if TYPE_CHECKING:
     from cam.collision import CollisionScene
 
 __all__ = ["MIN_PIECE", "TRIM_ROUNDS", "cut_short_entry", "finish_pieces", "finish_runs",
-           "finish_trimmed", "offenders"]
+           "finish_trimmed", "kept_pieces", "offenders"]
 
 #: A pass is shortened at its ends at most this many times.
 TRIM_ROUNDS = 3
@@ -111,6 +111,35 @@ def _runs(good: NDArray[np.bool_]) -> list[NDArray[np.intp]]:
     edges = np.flatnonzero(np.diff(np.r_[False, good, False].astype(np.int8)))
     return [np.arange(a, b, dtype=np.intp) for a, b in zip(edges[::2], edges[1::2], strict=True)
             if b - a >= MIN_PIECE]
+
+
+def kept_pieces(path: CutterPath, keep: NDArray[np.bool_]) -> list[CutterPath]:
+    """The runs of the points ``keep`` of a pass as passes of their own.
+
+    A pass another operation cuts in part (the blade passes beside the swarf band,
+    ``swarf_plan.point_passes_left``) keeps its runs of at least ``MIN_PIECE``
+    points (a lone point takes its next neighbour), named ``<name>.s<k>``; they are
+    finished like any pass and machined as the pieces of one pass
+    (``PathResult.piece_of``: the pass's name).
+
+    Parameters
+    ----------
+    path : CutterPath
+    keep : (n,) bool
+
+    Returns
+    -------
+    list of CutterPath
+        In the pass's order; empty when nothing is kept, ``[path]`` when everything is.
+    """
+    keep = np.array(keep, dtype=bool, copy=True)
+    if keep.all():
+        return [path]
+    lone = keep & ~np.r_[False, keep[:-1]] & ~np.r_[keep[1:], False]
+    index = np.flatnonzero(lone)
+    keep[np.where(index + 1 < len(keep), index + 1, index - 1)] = True
+    return [replace(_piece(path, run), name=f"{path.name}.s{k + 1}")
+            for k, run in enumerate(_runs(keep))]
 
 
 def _recovered(path: CutterPath, index: NDArray[np.intp], tool: Tool, kins: Kinematics,
