@@ -66,6 +66,8 @@ class BladeSwarfPass:
         Area of the band strip of each ruling (half a step on each side), mm^2.
     side_area : float
         Area of the side (v in [0, 1], the outline's u range), mm^2.
+    flank : FlankTool
+        The tool the postures are planned for.
     """
 
     role: str
@@ -75,6 +77,7 @@ class BladeSwarfPass:
     cuttable: NDArray[np.bool_]
     ruling_area: Array
     side_area: float
+    flank: FlankTool
 
     @property
     def area_share(self) -> float:
@@ -285,4 +288,5 @@ def plan_blade_side(blade: BladeSurface, hub: RevolvedSurface, role: str, tool: 
     strips = _area(seg, np.clip(p - half, 0.0, 1.0), np.clip(p + half, 0.0, 1.0), v_bottom,
                    p, True, nu=5)
     side_area = float(_area(seg, np.array([0.0]), np.array([1.0]), v_bottom, p, False)[0])
-    return BladeSwarfPass(role, postures, v_bottom, sweep, cuttable, strips, side_area)
+    return BladeSwarfPass(role, postures, v_bottom, sweep, cuttable, strips, side_area,
+                          tool)
