@@ -52,6 +52,7 @@ from postproc.kinematics import Kinematics
 
 if TYPE_CHECKING:
     from cam.collision import CollisionScene
+    from cam.finishing.pieces import PassTrim
 
 __all__ = [
     "FinishResult",
@@ -373,7 +374,7 @@ class FinishResult:
 def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                    scene: CollisionScene, options: FinishOptions, *, scene_source: str,
                    progress: Callable[[int, int, str], None] | None = None,
-                   keep: Callable[[CutterPath], NDArray[np.bool_] | None] | None = None,
+                   keep: PassTrim | None = None,
                    before: Callable[[list[CutterPath]], object] | None = None
                    ) -> FinishResult:
     """Generate and finish every path of every passage (passage 0, then rotations).
@@ -391,14 +392,14 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
         Name of the collision meshes' origin (reported).
     progress : callable, optional
         ``progress(done, total, path_name)`` after each path.
-    keep : callable, optional
+    keep : PassTrim, optional
         ``keep(path)`` of a passage-0 path: the (n,) bool mask of its points to
         machine, None for all (the blade passes cut to what a swarf operation leaves,
-        ``swarf_plan.point_passes_left``). A pass kept in part is machined as its runs
-        (``pieces.kept_pieces``), each finished like a pass, all of them the pieces of
-        the one pass (``PathResult.piece_of``); a pass with nothing kept is left out,
-        with its rotations. ``extra["kept"]``: passage 0's blade points planned and
-        kept, passes whole, cut and left out.
+        ``swarf_plan.point_passes_left``). A pass kept in part becomes its runs, each
+        finished and machined like a pass, ordered region by region
+        (``pieces.trimmed_passes``); a pass with nothing kept is left out, with its
+        rotations. ``extra["kept"]``: passage 0's blade points planned and kept,
+        passes whole, cut and left out.
     before : callable, optional
         Called with every path of every passage before any is finished (a quick
         check that may refuse the job: ``machine_reach.check_machine_reach``).
@@ -418,12 +419,15 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                          blade=options.blade_passes, hub=options.hub_passes,
                          reach=max(tool.flute_length - tool.radius, 0.0),
                          chordal=options.chordal_tolerance_mm)
-    from cam.finishing.pieces import cut_short_entry, finish_runs  # builds on finish_path
+    from cam.finishing.pieces import (  # builds on finish_path
+        cut_short_entry,
+        finish_runs,
+        trimmed_passes,
+    )
 
-    whole: dict[str, str] = {}  # a kept piece of a pass -> the pass (passage 0)
     kept: dict[str, int] = {}
     if keep is not None:
-        base, whole, kept = _kept(base, keep)
+        base, kept = trimmed_passes(base, keep)
     blades = surfaces.spec.blades
     count = blades if options.passages is None else min(options.passages, blades)
     ordered: list[CutterPath] = []
@@ -442,10 +446,6 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
         key = path.name.split(".", 1)[1]
         pieces, lost = finish_runs(path, tool, kins, scene, options, surfaces,
                                    hint=hints.get(key))
-        name0 = path.name.replace(f"p{path.passage}.", "p0.", 1)
-        if name0 in whole:
-            for piece in pieces:
-                piece.piece_of = whole[name0].replace("p0.", f"p{path.passage}.", 1)
         results += pieces
         hints[key] = pieces[0].step_hint if len(pieces) == 1 and not lost.size else None
         if lost.size:
@@ -456,30 +456,6 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     if keep is not None:
         extra["kept"] = kept
     return FinishResult(results, tool, options, scene_source, extra=extra)
-
-
-def _kept(base: list[CutterPath], keep: Callable[[CutterPath], NDArray[np.bool_] | None]
-          ) -> tuple[list[CutterPath], dict[str, str], dict[str, int]]:
-    """``base`` with every pass cut to its ``keep`` mask (``pieces.kept_pieces``); the
-    pieces' pass names; the counts of ``plan_finishing``'s ``extra["kept"]``."""
-    from cam.finishing.pieces import kept_pieces
-
-    out: list[CutterPath] = []
-    whole: dict[str, str] = {}
-    counts = {"blade_points": 0, "blade_points_kept": 0, "passes_whole": 0,
-              "passes_cut": 0, "passes_left_out": 0}
-    for path in base:
-        mask = keep(path)
-        pieces = [path] if mask is None else kept_pieces(path, mask)
-        if path.operation == "blade":
-            counts["blade_points"] += len(path)
-            counts["blade_points_kept"] += sum(len(p) for p in pieces)
-            counts["passes_whole" if mask is None or mask.all() else
-                   "passes_cut" if pieces else "passes_left_out"] += 1
-        if not (len(pieces) == 1 and pieces[0] is path):
-            whole.update({p.name: path.name for p in pieces})
-        out += pieces
-    return out, whole, counts
 
 
 def passes_of(results: Sequence[PathResult]) -> list[tuple[Array, Array]]:

@@ -40,8 +40,8 @@ from postproc.kinematics import Kinematics
 if TYPE_CHECKING:
     from cam.collision import CollisionScene
 
-__all__ = ["SwarfWall", "plan_swarf", "point_passes_left", "swarf_check_text", "swarf_report",
-           "swarf_walls"]
+__all__ = ["PointPassTrim", "SwarfWall", "plan_swarf", "point_passes_left", "swarf_check_text",
+           "swarf_report", "swarf_walls"]
 
 Array = NDArray[np.float64]
 #: Check-and-drop rounds of the swarf postures of passage 0.
@@ -281,8 +281,61 @@ def swarf_report(walls: list[SwarfWall], results: list[PathResult]) -> dict[str,
     }
 
 
+@dataclass(frozen=True)
+class PointPassTrim:
+    """The blade point passes cut to what the swarf passes leave (``point_passes_left``).
+
+    Attributes
+    ----------
+    walls : dict of str to SwarfWall
+        The checked walls by label.
+    overlap_mm, end_overlap_mm : float
+        See ``point_passes_left``.
+    """
+
+    walls: dict[str, SwarfWall]
+    overlap_mm: float
+    end_overlap_mm: float
+
+    def __call__(self, path: CutterPath) -> NDArray[np.bool_] | None:
+        """None for a pass kept whole (not a blade pass, no swarf wall, nothing inside
+        the band), else the (n,) bool mask of the points to machine."""
+        if path.operation != "blade" or path.wall is None or path.blade_v is None:
+            return None
+        sw = self.walls.get(path.wall.label)
+        if sw is None:
+            return None
+        left = ~sw.inside(path.wall.own_u(path.curve_u), path.blade_v, self.overlap_mm)
+        if left.all():
+            return None
+        if not left.any():
+            return left
+        arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(path.centre, axis=0), axis=1))]
+        out = arc[left]
+        after = np.clip(np.searchsorted(out, arc), 0, len(out) - 1)
+        before = np.clip(after - 1, 0, len(out) - 1)
+        reach = np.minimum(np.abs(arc - out[after]), np.abs(arc - out[before]))
+        return np.asarray(reach <= self.end_overlap_mm)
+
+    def region(self, piece: CutterPath) -> int:
+        """The gap between swarf passes a kept piece lies in: the number of its wall's
+        swarf passes (runs of cut rulings) whose middle lies before the piece's middle
+        in blade u; -1 when the piece spans the middle of a pass."""
+        sw = self.walls.get(piece.wall.label) if piece.wall is not None else None
+        if sw is None or piece.wall is None:
+            return -1
+        u = piece.wall.own_u(piece.curve_u)
+        order = np.argsort(sw.blade_u)
+        ruling_u = sw.blade_u[order]
+        middles = np.array([0.5 * (ruling_u[r[0]] + ruling_u[r[-1]])
+                            for r in _runs(sw.result.cuttable[order])])
+        if np.any((middles > u.min()) & (middles < u.max())):
+            return -1
+        return int(np.sum(middles < 0.5 * (u.min() + u.max())))
+
+
 def point_passes_left(walls: list[SwarfWall], overlap_mm: float, end_overlap_mm: float
-                      ) -> Callable[[CutterPath], NDArray[np.bool_] | None]:
+                      ) -> PointPassTrim:
     """``keep`` for ``plan.plan_finishing``: the blade passes cut to what swarf leaves.
 
     A point of a passage-0 blade pass is left to the swarf passes when it lies at least
@@ -290,7 +343,8 @@ def point_passes_left(walls: list[SwarfWall], overlap_mm: float, end_overlap_mm:
     (``SwarfWall.inside``) and at least ``end_overlap_mm`` along the pass (the ball
     centres' arc length) from every point that does not: the point passes overlap
     the swarf band by about a stepover across the rulings and by ``end_overlap_mm``
-    where they run into or out of it, so no ridge stays between the two.
+    where they run into or out of it, so no ridge stays between the two. The pieces
+    are machined region by region (``PointPassTrim.region``, ``pieces.trimmed_passes``).
 
     Parameters
     ----------
@@ -301,35 +355,14 @@ def point_passes_left(walls: list[SwarfWall], overlap_mm: float, end_overlap_mm:
         lie to be left to the swarf passes, mm (the blade passes' stepover).
     end_overlap_mm : float
         Length along a pass the kept parts reach into the band, mm (a stepover plus
-        a ruling step: the flank's cut fades beyond a run's end ruling).
+        a ruling step: the flank leaves up to 0.08 mm within a ruling step inside a
+        pass's end rulings, ``swarf_sweep.pass_deviation``).
 
     Returns
     -------
-    callable
-        ``keep(path)``: None for a pass kept whole (not a blade pass, no swarf wall,
-        nothing inside the band), else the (n,) bool mask of the points to machine.
+    PointPassTrim
     """
-    by_label = {sw.wall.label: sw for sw in walls}
-
-    def keep(path: CutterPath) -> NDArray[np.bool_] | None:
-        if path.operation != "blade" or path.wall is None or path.blade_v is None:
-            return None
-        sw = by_label.get(path.wall.label)
-        if sw is None:
-            return None
-        left = ~sw.inside(path.wall.own_u(path.curve_u), path.blade_v, overlap_mm)
-        if left.all():
-            return None
-        if not left.any():
-            return left
-        arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(path.centre, axis=0), axis=1))]
-        out = arc[left]
-        after = np.clip(np.searchsorted(out, arc), 0, len(out) - 1)
-        before = np.clip(after - 1, 0, len(out) - 1)
-        reach = np.minimum(np.abs(arc - out[after]), np.abs(arc - out[before]))
-        return np.asarray(reach <= end_overlap_mm)
-
-    return keep
+    return PointPassTrim({sw.wall.label: sw for sw in walls}, overlap_mm, end_overlap_mm)
 
 
 def swarf_check_text(surfaces: ImpellerSurfaces, tool: Tool, options: FinishOptions) -> str:

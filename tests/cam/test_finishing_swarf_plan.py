@@ -4,6 +4,7 @@ checked passes on the developable fixture ``straight`` (issue 23)."""
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -148,6 +149,43 @@ def test_kept_pieces_split_a_pass_into_runs(straight: ImpellerSurfaces, tool: To
     assert len(pieces[0]) == 5 and len(pieces[1]) == 2
     np.testing.assert_array_equal(pieces[0].centre, path.centre[:5])
     np.testing.assert_array_equal(pieces[1].centre, path.centre[n - 2:])
+
+
+def _is_piece(name: str) -> bool:
+    """A kept piece of a pass (``<pass>.s<k>``)."""
+    return re.search(r"\.s\d+$", name) is not None
+
+
+def test_trimmed_pieces_are_ordered_region_by_region(straight: ImpellerSurfaces, tool: Tool,
+                                                     walls: list[SwarfWall]) -> None:
+    """With the middle half of the rulings swarf-cut, each wall's blade passes are
+    machined whole (or spanning) first, then the pieces before the swarf pass, then
+    those after it; junction passes keep their place; every kept point is planned."""
+    from cam.finishing.pieces import trimmed_passes
+    from cam.finishing.swarf_plan import point_passes_left
+
+    stepover = scallop_stepover(tool.radius, 0.1)
+    base = passage_paths(straight, tool.radius, 1.0, stepover, blade=True, hub=False,
+                         reach=tool.flute_length - tool.radius)
+    trim = point_passes_left([_middle_cut(sw) for sw in walls], stepover, stepover + 1.0)
+    paths, counts = trimmed_passes(base, trim)
+    assert [p.name for p in paths if p.operation != "blade"] == [
+        p.name for p in base if p.operation != "blade"]
+    assert counts["passes_cut"] > 0
+    assert counts["blade_points_kept"] == sum(len(p) for p in paths if p.operation == "blade")
+    for sw in walls:
+        mine = [p for p in paths if p.operation == "blade" and p.wall is not None
+                and p.wall.label == sw.wall.label]
+        regions = [trim.region(p) if _is_piece(p.name) else -1 for p in mine]
+        assert regions == sorted(regions)
+        assert {0, 1} <= set(regions)
+        for p in mine:
+            if _is_piece(p.name) and trim.region(p) >= 0:  # a piece beside the swarf pass
+                u = p.wall.own_u(p.curve_u) if p.wall is not None else None
+                assert u is not None
+                order = np.sort(sw.blade_u)
+                middle = 0.5 * (order[len(order) // 4] + order[3 * len(order) // 4 - 1])
+                assert (u.max() < middle) == (trim.region(p) == 0)
 
 
 def test_inside_counts_only_between_a_runs_end_rulings(walls: list[SwarfWall]) -> None:
