@@ -118,9 +118,8 @@ def kept_pieces(path: CutterPath, keep: NDArray[np.bool_]) -> list[CutterPath]:
 
     A pass another operation cuts in part (the blade passes beside the swarf band,
     ``swarf_plan.point_passes_left``) keeps its runs of at least ``MIN_PIECE``
-    points (a lone point takes its next neighbour), named ``<name>.s<k>``; they are
-    finished like any pass and machined as the pieces of one pass
-    (``PathResult.piece_of``: the pass's name).
+    points (a lone point takes its next neighbour), named ``<name>.s<k>``; each is
+    finished and machined like a pass (``trimmed_passes`` orders them).
 
     Parameters
     ----------
