@@ -42,7 +42,7 @@ def spec_path(fixture: str) -> Path:
 
 
 def finish_stage(fixture: str, tool: str, strategy: str, out: Path,
-                 clearance: float | None) -> None:
+                 clearance: float | None, ruling_step: float | None = None) -> None:
     import tomllib
 
     from cam.finishing.command import run_finish
@@ -55,6 +55,8 @@ def finish_stage(fixture: str, tool: str, strategy: str, out: Path,
         options["clearance_mm"] = clearance
         options["clearance_exact_mm"] = max(3.0, clearance)
     options.update(passages=1, hub_passes=False, edge_passes=False, blade_strategy=strategy)
+    if ruling_step is not None:
+        options["swarf_ruling_step_mm"] = ruling_step
     wall, cpu = time.perf_counter(), time.process_time()
     result = run_finish(spec_path(fixture), MACHINE, tool, out / "finish", plots=False,
                         machine_obstacle=False, **options)
@@ -163,6 +165,8 @@ def main() -> None:
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--strategy", default="swarf_or_point")
     parser.add_argument("--clearance", type=float, default=None)
+    parser.add_argument("--ruling-step", type=float, default=None,
+                        help="finish: swarf_ruling_step_mm (default: the spec's, else 1 mm)")
     parser.add_argument("--stock", default="blank")
     parser.add_argument("--resolution", type=float, default=0.1)
     parser.add_argument("--sweep-tol", type=float, default=0.01)
@@ -171,7 +175,8 @@ def main() -> None:
     args = parser.parse_args()
     out = args.out / args.fixture
     if args.stage == "finish":
-        finish_stage(args.fixture, args.tool, args.strategy, out, args.clearance)
+        finish_stage(args.fixture, args.tool, args.strategy, out, args.clearance,
+                     args.ruling_step)
     elif args.stage == "verify":
         verify_stage(args.fixture, args.tool, out, args.stock, args.resolution,
                      args.sweep_tol, args.clearance, args.angular_tol)

@@ -109,7 +109,7 @@ def finish_command(
     machine: Annotated[Path, typer.Option("-m", "--machine", help="Machine TOML (or a "
                                           "bundled one: trunnion-500, xyzac-trt).")],
     tool: Annotated[str, typer.Option("-t", "--tool", help="NAME or LIBRARY.toml:NAME.")],
-    out: Annotated[Path, typer.Option("-o", "--out", help="Output folder.")],
+    out: Annotated[Path | None, typer.Option("-o", "--out", help="Output folder.")] = None,
     scallop: Annotated[float, typer.Option(help="Allowed scallop height, mm.")] = 0.02,
     spacing: Annotated[float, typer.Option(help="Point spacing along a path, mm.")] = 0.25,
     chordal_tol: Annotated[
@@ -137,15 +137,41 @@ def finish_command(
     stock_clearance: Annotated[
         float, typer.Option(help="Clearance of shank and holder from the --stock, mm.")
     ] = 0.5,
+    blade_strategy: Annotated[
+        str, typer.Option("--blade-strategy", help="Blade sides: point (ball passes), swarf "
+                          "(flank passes along the rulings) or swarf_or_point (flank passes, "
+                          "ball passes on what they leave).")
+    ] = "point",
+    check_swarf: Annotated[
+        bool, typer.Option("--check-swarf", help="Print the rule deviation and the "
+                           "predicted swarf deviation per band; write nothing.")
+    ] = False,
 ) -> None:
     """Five-axis finishing: APT per operation, finish.json, A/C displacement plots."""
     from cam.finishing.command import run_finish
-    from cam.finishing.options import FinishOptions
+    from cam.finishing.options import BLADE_STRATEGIES, FinishOptions
 
+    if blade_strategy not in BLADE_STRATEGIES:
+        raise InputError("unknown blade strategy", field="--blade-strategy",
+                         value=blade_strategy, accepted=", ".join(BLADE_STRATEGIES))
     options = FinishOptions.from_mapping({
         "scallop_mm": scallop, "point_spacing_mm": spacing, "chordal_tolerance_mm": chordal_tol,
         "passages": passages, "clearance_mm": clearance,
-        "clearance_exact_mm": max(clearance, 3.0), "stock_clearance_mm": stock_clearance})
+        "clearance_exact_mm": max(clearance, 3.0), "stock_clearance_mm": stock_clearance,
+        "blade_strategy": blade_strategy})
+    if check_swarf:
+        from cam.finishing.swarf_plan import swarf_check_text
+        from cam.tools import resolve_tool
+        from geometry.spec import load_spec
+        from geometry.surfaces import build_surfaces
+
+        the_tool = resolve_tool(tool)
+        typer.echo(swarf_check_text(build_surfaces(load_spec(spec)), the_tool, options),
+                   nl=False)
+        return
+    if out is None:
+        raise InputError("an output folder is needed", field="-o", value="(none)",
+                         accepted="-o FOLDER (or --check-swarf, which writes nothing)")
     run_finish(spec, _machine(machine), tool, out, options=options, plots=plots,
                fillet_tool=fillet_tool, stock=stock)
 

@@ -240,17 +240,21 @@ def _swarf_setup(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                  collision: CollisionScene, opts: FinishOptions, scene: str,
                  report: Any) -> tuple[FinishResult | None, FinishOptions, Any]:
     """The checked swarf passes (None for ``blade_strategy = "point"``), the options of
-    the point milling (no blade passes for ``"swarf"``) and its ``skip`` of the blade
-    passes the swarf passes cut (``"swarf_or_point"``)."""
+    the point milling (no blade passes for ``"swarf"``) and its ``keep``: the blade
+    passes cut to what the swarf passes leave (``"swarf_or_point"``; overlap: a
+    stepover across the rulings, a stepover and a ruling step along the passes)."""
     if opts.blade_strategy == "point":
         return None, opts, None
-    from cam.finishing.swarf_plan import covered_by, plan_swarf
+    from cam.finishing.options import scallop_stepover
+    from cam.finishing.swarf_plan import plan_swarf, point_passes_left
 
     flank = plan_swarf(surfaces, tool, kins, collision, opts, scene_source=scene,
                        progress=report)
     if opts.blade_strategy == "swarf":
         return flank, replace(opts, blade_passes=False), None
-    return flank, opts, covered_by(flank.extra["swarf_walls"])
+    stepover = scallop_stepover(tool.radius, opts.scallop_mm)
+    return flank, opts, point_passes_left(flank.extra["swarf_walls"], stepover,
+                                          stepover + opts.swarf_ruling_step_mm)
 
 
 def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
@@ -371,19 +375,20 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
             if bar is not None:
                 bar.update(task, completed=done, total=total, description=name)
 
-        flank, plan_opts, skip = _swarf_setup(surfaces, the_tool, kins, collision, opts,
+        flank, plan_opts, keep = _swarf_setup(surfaces, the_tool, kins, collision, opts,
                                               scene, report)
         reach = None if obstacle is None else partial(
             check_machine_reach, obstacle, the_tool, options=opts, machine=str(machine))
         result = plan_finishing(surfaces, the_tool, kins, collision, plan_opts,
-                                scene_source=scene, progress=report, skip=skip, before=reach)
+                                scene_source=scene, progress=report, keep=keep, before=reach)
         cut_short: list[dict[str, Any]] = list(result.extra.get("cut_short", []))
+        result_kept = result.extra.get("kept")
         result = FinishResult(result.paths, the_tool, opts, scene)
         toolpaths = finish_toolpaths(result, surfaces, collision, kins)
         tools = {op: the_tool for op in toolpaths}
         swarf_entry = None
         if flank is not None:
-            swarf_entry = flank.extra["swarf"]
+            swarf_entry = {**flank.extra["swarf"], "point_passes": result_kept}
             if flank.paths:
                 toolpaths.update(finish_toolpaths(flank, surfaces, collision, kins))
                 tools.update({op: the_tool for op in flank.operations()})

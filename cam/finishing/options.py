@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, Literal, get_args
 
 from impeller_cam.errors import InputError
 from impeller_cam.options import options_from_mapping
@@ -17,7 +17,9 @@ from impeller_cam.tolerances import DEFAULT_TOLERANCES
 __all__ = ["BLADE_STRATEGIES", "FinishOptions", "scallop_stepover"]
 
 #: How the blade sides are finished (``FinishOptions.blade_strategy``).
-BLADE_STRATEGIES = ("point", "swarf", "swarf_or_point")
+BladeStrategy = Literal["point", "swarf", "swarf_or_point"]
+#: The accepted values of ``blade_strategy`` (the schema's enum).
+BLADE_STRATEGIES: tuple[str, ...] = get_args(BladeStrategy)
 
 
 def scallop_stepover(radius: float, scallop: float) -> float:
@@ -209,7 +211,7 @@ class FinishOptions:
     hub_passes: bool = True
     edge_passes: bool = True
     tessellation_mm: float = DEFAULT_TOLERANCES.tessellation
-    blade_strategy: str = "point"
+    blade_strategy: BladeStrategy = "point"
     swarf_overcut_mm: float = 0.01
     swarf_undercut_mm: float = 0.03
     swarf_ruling_step_mm: float = 1.0

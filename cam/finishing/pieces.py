@@ -27,7 +27,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -45,7 +45,7 @@ if TYPE_CHECKING:
     from cam.collision import CollisionScene
 
 __all__ = ["MIN_PIECE", "TRIM_ROUNDS", "cut_short_entry", "finish_pieces", "finish_runs",
-           "finish_trimmed", "offenders"]
+           "finish_trimmed", "kept_pieces", "offenders", "PassTrim", "trimmed_passes"]
 
 #: A pass is shortened at its ends at most this many times.
 TRIM_ROUNDS = 3
@@ -115,6 +115,89 @@ def _runs(good: NDArray[np.bool_]) -> list[NDArray[np.intp]]:
     edges = np.flatnonzero(np.diff(np.r_[False, good, False].astype(np.int8)))
     return [np.arange(a, b, dtype=np.intp) for a, b in zip(edges[::2], edges[1::2], strict=True)
             if b - a >= MIN_PIECE]
+
+
+def kept_pieces(path: CutterPath, keep: NDArray[np.bool_]) -> list[CutterPath]:
+    """The runs of the points ``keep`` of a pass as passes of their own.
+
+    A pass another operation cuts in part (the blade passes beside the swarf band,
+    ``swarf_plan.point_passes_left``) keeps its runs of at least ``MIN_PIECE``
+    points (a lone point takes its next neighbour), named ``<name>.s<k>``; each is
+    finished and machined like a pass (``trimmed_passes`` orders them).
+
+    Parameters
+    ----------
+    path : CutterPath
+    keep : (n,) bool
+
+    Returns
+    -------
+    list of CutterPath
+        In the pass's order; empty when nothing is kept, ``[path]`` when everything is.
+    """
+    keep = np.array(keep, dtype=bool, copy=True)
+    if keep.all():
+        return [path]
+    lone = keep & ~np.r_[False, keep[:-1]] & ~np.r_[keep[1:], False]
+    index = np.flatnonzero(lone)
+    keep[np.where(index + 1 < len(keep), index + 1, index - 1)] = True
+    return [replace(_piece(path, run), name=f"{path.name}.s{k + 1}")
+            for k, run in enumerate(_runs(keep))]
+
+
+class PassTrim(Protocol):
+    """What another operation leaves of the passes (``swarf_plan.PointPassTrim``)."""
+
+    def __call__(self, path: CutterPath) -> NDArray[np.bool_] | None:
+        """The (n,) bool mask of the points of ``path`` to machine; None for all."""
+
+    def region(self, piece: CutterPath) -> int:
+        """The region of the part left that a piece lies in (-1: it spans several)."""
+
+
+def trimmed_passes(base: list[CutterPath], trim: PassTrim
+                   ) -> tuple[list[CutterPath], dict[str, int]]:
+    """Passes cut to what ``trim`` keeps, the pieces ordered region by region.
+
+    Each pass kept in part becomes its runs (``kept_pieces``), each machined as a pass
+    of its own. The blade passes of a wall are then ordered passes whole and pieces
+    spanning several regions first, then the pieces region by region (each in the
+    passes' order): neighbouring pieces one stepover apart follow each other (short
+    links, zig-zag) instead of every pass hopping over the other operation's band.
+
+    Parameters
+    ----------
+    base : list of CutterPath
+        Passage 0's passes, planning order.
+    trim : PassTrim
+
+    Returns
+    -------
+    paths : list of CutterPath
+    counts : dict
+        ``blade_points`` planned and ``blade_points_kept``; blade passes
+        ``passes_whole``, ``passes_cut``, ``passes_left_out``.
+    """
+    out: list[tuple[tuple[int, ...], CutterPath]] = []
+    walls: dict[str, int] = {}
+    counts = {"blade_points": 0, "blade_points_kept": 0, "passes_whole": 0,
+              "passes_cut": 0, "passes_left_out": 0}
+    for i, path in enumerate(base):
+        mask = trim(path)
+        pieces = [path] if mask is None else kept_pieces(path, mask)
+        whole = len(pieces) == 1 and pieces[0] is path
+        if path.operation == "blade":
+            counts["blade_points"] += len(path)
+            counts["blade_points_kept"] += sum(len(p) for p in pieces)
+            counts["passes_whole" if whole else
+                   "passes_cut" if pieces else "passes_left_out"] += 1
+        if path.operation != "blade" or path.wall is None:
+            out += [((i,), p) for p in pieces]
+            continue
+        wall = walls.setdefault(path.wall.label, i)  # the wall's first pass's place
+        out += [((wall, -1 if whole else trim.region(p), i), p) for p in pieces]
+    out.sort(key=lambda item: item[0])
+    return [p for _, p in out], counts
 
 
 def _recovered(path: CutterPath, index: NDArray[np.intp], tool: Tool, kins: Kinematics,

@@ -53,6 +53,7 @@ from postproc.kinematics import Kinematics
 
 if TYPE_CHECKING:
     from cam.collision import CollisionScene
+    from cam.finishing.pieces import PassTrim
 
 __all__ = [
     "FinishResult",
@@ -380,7 +381,7 @@ class FinishResult:
 def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                    scene: CollisionScene, options: FinishOptions, *, scene_source: str,
                    progress: Callable[[int, int, str], None] | None = None,
-                   skip: Callable[[CutterPath], bool] | None = None,
+                   keep: PassTrim | None = None,
                    before: Callable[[list[CutterPath]], object] | None = None
                    ) -> FinishResult:
     """Generate and finish every path of every passage (passage 0, then rotations).
@@ -398,9 +399,14 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
         Name of the collision meshes' origin (reported).
     progress : callable, optional
         ``progress(done, total, path_name)`` after each path.
-    skip : callable, optional
-        ``skip(path)`` of a passage-0 path: leave it (and its rotations) out (the
-        blade passes a swarf operation cuts, ``swarf_plan.SwarfWall.covered``).
+    keep : PassTrim, optional
+        ``keep(path)`` of a passage-0 path: the (n,) bool mask of its points to
+        machine, None for all (the blade passes cut to what a swarf operation leaves,
+        ``swarf_plan.point_passes_left``). A pass kept in part becomes its runs, each
+        finished and machined like a pass, ordered region by region
+        (``pieces.trimmed_passes``); a pass with nothing kept is left out, with its
+        rotations. ``extra["kept"]``: passage 0's blade points planned and kept,
+        passes whole, cut and left out.
     before : callable, optional
         Called with every path of every passage before any is finished (a quick
         check that may refuse the job: ``machine_reach.check_machine_reach``).
@@ -420,8 +426,15 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                          blade=options.blade_passes, hub=options.hub_passes,
                          reach=max(tool.flute_length - tool.radius, 0.0),
                          chordal=options.chordal_tolerance_mm)
-    if skip is not None:
-        base = [p for p in base if not skip(p)]
+    from cam.finishing.pieces import (  # builds on finish_path
+        cut_short_entry,
+        finish_runs,
+        trimmed_passes,
+    )
+
+    kept: dict[str, int] = {}
+    if keep is not None:
+        base, kept = trimmed_passes(base, keep)
     blades = surfaces.spec.blades
     count = blades if options.passages is None else min(options.passages, blades)
     ordered: list[CutterPath] = []
@@ -431,8 +444,6 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                         for p in base if p.operation == op]
     if before is not None:
         before(ordered)
-    from cam.finishing.pieces import cut_short_entry, finish_runs  # builds on finish_path
-
     results: list[PathResult] = []
     cut_short: list[dict[str, Any]] = []
     # the same path in the previous passage: its remedy step is tried first (proven
@@ -448,7 +459,10 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
             cut_short.append(cut_short_entry(path, lost))
         if progress is not None:
             progress(i + 1, len(ordered), path.name)
-    return FinishResult(results, tool, options, scene_source, extra={"cut_short": cut_short})
+    extra: dict[str, Any] = {"cut_short": cut_short}
+    if keep is not None:
+        extra["kept"] = kept
+    return FinishResult(results, tool, options, scene_source, extra=extra)
 
 
 def passes_of(results: Sequence[PathResult]) -> list[tuple[Array, Array]]:

@@ -5,7 +5,9 @@ One pass per blade side: the tool's flank along the side's rulings from the blad
 outline's u range (``geometry.outline.blade_loop``: the side between the edge caps or
 broken corners). The band's bottom ``v_b(u)`` is the lowest ruling end for which the
 centre of the tool's ball is at least ``max(R_b, r_f)`` above the hub (the ball then
-stays inside the rolling ball of the fillet and never cuts the fillet or the hub);
+stays inside the rolling ball of the fillet and never cuts the fillet or the hub) --
+for the tangent-plane posture first, then raised where the fitted posture's ball
+comes nearer (up to ``_HUB_ROUNDS`` times);
 the rest of the side (the fillet strip and the edges) is left to point milling.
 
 The deviations are computed against the exact side surface (``BladeSurface.side``),
@@ -35,6 +37,11 @@ __all__ = ["BladeSwarfPass", "band_bottom", "plan_blade_side", "side_segment"]
 Array = NDArray[np.float64]
 #: Bisection steps of the band bottom (v resolution 2^-30).
 _BISECTIONS = 30
+#: Rounds of raising the band bottom where the fitted posture's ball comes nearer the
+#: hub than ``max(R_b, r_f)`` (each re-plans the band).
+_HUB_ROUNDS = 3
+#: Further clearance of the ball centre from the hub added in such a round, mm.
+_HUB_MARGIN = 0.01
 #: Grid of the area quadrature (u, v).
 _AREA_GRID = (121, 41)
 
@@ -59,6 +66,8 @@ class BladeSwarfPass:
         Area of the band strip of each ruling (half a step on each side), mm^2.
     side_area : float
         Area of the side (v in [0, 1], the outline's u range), mm^2.
+    flank : FlankTool
+        The tool the postures are planned for.
     """
 
     role: str
@@ -68,6 +77,7 @@ class BladeSwarfPass:
     cuttable: NDArray[np.bool_]
     ruling_area: Array
     side_area: float
+    flank: FlankTool
 
     @property
     def area_share(self) -> float:
@@ -123,7 +133,7 @@ def side_segment(blade: BladeSurface, role: str, leading_edge: str,
 
 
 def band_bottom(seg: OutlineSegment, hub: RevolvedSurface, tool: FlankTool, p: Array,
-                fillet_radius: float) -> Array:
+                fillet_radius: float, margin: Array | float = 0.0) -> Array:
     """Lowest blade v of the swarf band at each ruling p (the ball clears the fillet).
 
     Parameters
@@ -136,14 +146,18 @@ def band_bottom(seg: OutlineSegment, hub: RevolvedSurface, tool: FlankTool, p: A
         Rulings.
     fillet_radius : float
         Root fillet radius r_f, mm.
+    margin : float or (n,) float64
+        Further distance per ruling the ball centre keeps from the hub, mm (what the
+        fitted posture came nearer than the tangent-plane one: ``plan_blade_side``).
 
     Returns
     -------
     (n,) float64
         v_b with the tangent-plane posture along ``[0, v_b]`` keeping the ball centre
-        (the tip for a flat end) ``max(R_b, r_f)`` from the hub (bisection).
+        (the tip for a flat end) ``max(R_b, r_f) + margin`` from the hub (bisection).
     """
-    need = max(tool.ball_radius, fillet_radius)
+    need = max(tool.ball_radius, fillet_radius) + np.broadcast_to(
+        np.asarray(margin, dtype=np.float64), np.shape(p))
     p = np.asarray(p, dtype=np.float64)
     ca, sa = math.cos(tool.half_angle), math.sin(tool.half_angle)
     top = seg.point(p, np.zeros_like(p))
@@ -248,10 +262,18 @@ def plan_blade_side(blade: BladeSurface, hub: RevolvedSurface, role: str, tool: 
     tip_line = seg.point(dense, np.zeros_like(dense))
     length = float(np.linalg.norm(np.diff(tip_line, axis=0), axis=1).sum())
     p = np.linspace(0.0, 1.0, max(2, int(np.ceil(length / ruling_step_mm)) + 1))
-    v_bottom = band_bottom(seg, hub, tool, p, fillet_radius)
-    patch = _band_patch(seg, p, v_bottom)
-    postures = plan_postures(patch, tool, p, samples=samples, overcut=overcut,
-                             undercut=undercut, refine=refine)
+    need = max(tool.ball_radius, fillet_radius)
+    margin = np.zeros(len(p))
+    for _ in range(_HUB_ROUNDS):
+        v_bottom = band_bottom(seg, hub, tool, p, fillet_radius, margin)
+        patch = _band_patch(seg, p, v_bottom)
+        postures = plan_postures(patch, tool, p, samples=samples, overcut=overcut,
+                                 undercut=undercut, refine=refine)
+        # the fitted posture may bring the ball nearer the hub than the tangent one
+        short = need - hub.signed_distance(postures.tips + tool.ball_radius * postures.axes)
+        if not np.any(short > 0):
+            break
+        margin = np.where(short > 0, margin + short + _HUB_MARGIN, margin)
     sweep = swept_deviation(patch, tool, postures, samples=samples)
     owner = np.rint(np.interp(sweep.u, p, np.arange(len(p)))).astype(int)
     swept_min = np.full(len(p), np.inf)
@@ -266,4 +288,5 @@ def plan_blade_side(blade: BladeSurface, hub: RevolvedSurface, role: str, tool: 
     strips = _area(seg, np.clip(p - half, 0.0, 1.0), np.clip(p + half, 0.0, 1.0), v_bottom,
                    p, True, nu=5)
     side_area = float(_area(seg, np.array([0.0]), np.array([1.0]), v_bottom, p, False)[0])
-    return BladeSwarfPass(role, postures, v_bottom, sweep, cuttable, strips, side_area)
+    return BladeSwarfPass(role, postures, v_bottom, sweep, cuttable, strips, side_area,
+                          tool)

@@ -10,8 +10,9 @@ which would change the deviation), checked like any finishing path
 (``interference.check_path``: the flutes are the cutter, shank and holder keep
 ``clearance_mm``) and counted for A/C reversals in the machine's joints. The other
 passages get rotated copies. Postures that collide or start an A/C reversal are
-dropped from the swarf cut (``plan_swarf``). ``covered`` tells the point-milling planner which blade
-passes lie wholly inside the swarf-cut band (``blade_strategy = "swarf_or_point"``).
+dropped from the swarf cut (``plan_swarf``). With ``blade_strategy = "swarf_or_point"``
+the blade point passes are cut to what the swarf band leaves, with an overlap
+(``point_passes_left``).
 """
 
 from __future__ import annotations
@@ -39,7 +40,8 @@ from postproc.kinematics import Kinematics
 if TYPE_CHECKING:
     from cam.collision import CollisionScene
 
-__all__ = ["SwarfWall", "covered_by", "plan_swarf", "swarf_report", "swarf_walls"]
+__all__ = ["PointPassTrim", "SwarfWall", "plan_swarf", "point_passes_left", "swarf_check_text",
+           "swarf_report", "swarf_walls"]
 
 Array = NDArray[np.float64]
 #: Check-and-drop rounds of the swarf postures of passage 0.
@@ -62,29 +64,37 @@ class SwarfWall:
     result: BladeSwarfPass
     blade_u: Array
 
-    def covered(self, blade_u: Array, blade_v: Array) -> NDArray[np.bool_]:
-        """Points ``(u, v)`` of this wall inside the band of a swarf-cut ruling.
+    def inside(self, blade_u: Array, blade_v: Array, margin_mm: float = 0.0
+               ) -> NDArray[np.bool_]:
+        """Points ``(u, v)`` of this wall at least ``margin_mm`` inside a swarf pass's band.
 
         Parameters
         ----------
         blade_u, blade_v : (k,) float64
             The blade's own u and v of the points.
+        margin_mm : float
+            Least depth above the band bottom, measured along the ruling, mm.
 
         Returns
         -------
         (k,) bool
-            The nearest ruling is cut and ``v`` lies above its band bottom. Points
-            beyond the side's u range (on a broken corner or an edge cap: the edge
-            passes' surfaces, not the side's) count as covered when their nearest
-            ruling is cut.
+            ``u`` lies between the end rulings of a run of at least two swarf-cut
+            rulings (a pass, ``plan_swarf``) and ``(v_b(u) - v) L(u) >= margin_mm``,
+            ``L`` the ruling's length (v = 0 to 1) and ``v_b`` the band bottom. Nothing
+            beyond a run's end ruling counts.
         """
+        blade_u = np.asarray(blade_u, dtype=np.float64)
         order = np.argsort(self.blade_u)
         u, cut = self.blade_u[order], self.result.cuttable[order]
         bottom = self.result.v_bottom[order]
-        nearest = np.clip(np.searchsorted(u, blade_u), 1, len(u) - 1)
-        left = np.abs(blade_u - u[nearest - 1]) <= np.abs(u[nearest] - blade_u)
-        nearest = np.where(left, nearest - 1, nearest)
-        return np.asarray(cut[nearest] & (blade_v <= np.interp(blade_u, u, bottom)))
+        blade, side = self.wall.blade, self.wall.side
+        length = np.linalg.norm(blade.side(u, np.zeros_like(u), side)
+                                - blade.side(u, np.ones_like(u), side), axis=1)
+        depth = (np.interp(blade_u, u, bottom) - blade_v) * np.interp(blade_u, u, length)
+        within = np.zeros(len(blade_u), dtype=bool)
+        for run in _runs(cut):
+            within |= (blade_u >= u[run[0]]) & (blade_u <= u[run[-1]])
+        return np.asarray(within & (depth >= margin_mm))
 
 
 def swarf_walls(surfaces: ImpellerSurfaces, tool: Tool,
@@ -271,27 +281,128 @@ def swarf_report(walls: list[SwarfWall], results: list[PathResult]) -> dict[str,
     }
 
 
-def covered_by(walls: list[SwarfWall]) -> Callable[[CutterPath], bool]:
-    """``skip`` for ``plan.plan_finishing``: blade passes wholly inside a swarf band.
+@dataclass(frozen=True)
+class PointPassTrim:
+    """The blade point passes cut to what the swarf passes leave (``point_passes_left``).
+
+    Attributes
+    ----------
+    walls : dict of str to SwarfWall
+        The checked walls by label.
+    overlap_mm, end_overlap_mm : float
+        See ``point_passes_left``.
+    """
+
+    walls: dict[str, SwarfWall]
+    overlap_mm: float
+    end_overlap_mm: float
+
+    def __call__(self, path: CutterPath) -> NDArray[np.bool_] | None:
+        """None for a pass kept whole (not a blade pass, no swarf wall, nothing inside
+        the band), else the (n,) bool mask of the points to machine."""
+        if path.operation != "blade" or path.wall is None or path.blade_v is None:
+            return None
+        sw = self.walls.get(path.wall.label)
+        if sw is None:
+            return None
+        left = ~sw.inside(path.wall.own_u(path.curve_u), path.blade_v, self.overlap_mm)
+        if left.all():
+            return None
+        if not left.any():
+            return left
+        arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(path.centre, axis=0), axis=1))]
+        out = arc[left]
+        after = np.clip(np.searchsorted(out, arc), 0, len(out) - 1)
+        before = np.clip(after - 1, 0, len(out) - 1)
+        reach = np.minimum(np.abs(arc - out[after]), np.abs(arc - out[before]))
+        return np.asarray(reach <= self.end_overlap_mm)
+
+    def region(self, piece: CutterPath) -> int:
+        """The gap between swarf passes a kept piece lies in: the number of its wall's
+        swarf passes (runs of cut rulings) whose middle lies before the piece's middle
+        in blade u; -1 when the piece spans the middle of a pass."""
+        sw = self.walls.get(piece.wall.label) if piece.wall is not None else None
+        if sw is None or piece.wall is None:
+            return -1
+        u = piece.wall.own_u(piece.curve_u)
+        order = np.argsort(sw.blade_u)
+        ruling_u = sw.blade_u[order]
+        middles = np.array([0.5 * (ruling_u[r[0]] + ruling_u[r[-1]])
+                            for r in _runs(sw.result.cuttable[order])])
+        if np.any((middles > u.min()) & (middles < u.max())):
+            return -1
+        return int(np.sum(middles < 0.5 * (u.min() + u.max())))
+
+
+def point_passes_left(walls: list[SwarfWall], overlap_mm: float, end_overlap_mm: float
+                      ) -> PointPassTrim:
+    """``keep`` for ``plan.plan_finishing``: the blade passes cut to what swarf leaves.
+
+    A point of a passage-0 blade pass is left to the swarf passes when it lies at least
+    ``overlap_mm`` inside the band of a run of swarf-cut rulings of its wall
+    (``SwarfWall.inside``) and at least ``end_overlap_mm`` along the pass (the ball
+    centres' arc length) from every point that does not: the point passes overlap
+    the swarf band by about a stepover across the rulings and by ``end_overlap_mm``
+    where they run into or out of it, so no ridge stays between the two. The pieces
+    are machined region by region (``PointPassTrim.region``, ``pieces.trimmed_passes``).
 
     Parameters
     ----------
     walls : list of SwarfWall
+        The checked walls (``plan_swarf``'s ``extra["swarf_walls"]``).
+    overlap_mm : float
+        Depth into the band (along the ruling, from the band bottom) a point must
+        lie to be left to the swarf passes, mm (the blade passes' stepover).
+    end_overlap_mm : float
+        Length along a pass the kept parts reach into the band, mm (a stepover plus
+        a ruling step: the flank leaves up to 0.08 mm within a ruling step inside a
+        pass's end rulings, ``swarf_sweep.pass_deviation``).
 
     Returns
     -------
-    callable
-        ``skip(path)``: True for a passage-0 blade pass whose every point lies in the
-        band of a swarf-cut ruling of its wall (``SwarfWall.covered``).
+    PointPassTrim
     """
-    by_label = {sw.wall.label: sw for sw in walls}
+    return PointPassTrim({sw.wall.label: sw for sw in walls}, overlap_mm, end_overlap_mm)
 
-    def skip(path: CutterPath) -> bool:
-        if path.operation != "blade" or path.wall is None or path.blade_v is None:
-            return False
-        sw = by_label.get(path.wall.label)
-        if sw is None:
-            return False
-        return bool(sw.covered(path.wall.own_u(path.curve_u), path.blade_v).all())
 
-    return skip
+def swarf_check_text(surfaces: ImpellerSurfaces, tool: Tool, options: FinishOptions) -> str:
+    """The limits stated before planning (``impeller-cam finish --check-swarf``).
+
+    The blades' rule deviation (``geometry.figures.rule_deviation``: the camber
+    surface from its ruled approximation) and, per wall of passage 0, the predicted
+    swarf deviation of its band (``swarf_walls``: per ruling and over the sweep,
+    against the exact side) with the rulings within the tolerances and the flutes.
+    No collision or reversal check: ``plan_swarf`` may drop more rulings.
+
+    Parameters
+    ----------
+    surfaces : ImpellerSurfaces
+    tool : Tool
+        The finishing tool (its flutes are the flank).
+    options : FinishOptions
+        ``swarf_*`` tolerances and ruling step, ``clearance_mm`` (flute margin).
+
+    Returns
+    -------
+    str
+        Lines of text (mm; share of the side's area in %).
+    """
+    from geometry.figures import rule_deviation
+
+    deviation, _ = rule_deviation(surfaces)
+    lines = [f"rule deviation of the blades: {deviation:.4f} mm",
+             f"swarf tool {tool.name}: flutes {tool.flute_length:g} mm, taper "
+             f"{tool.flute_taper_deg:g} deg; tolerances overcut {options.swarf_overcut_mm:g} mm, "
+             f"undercut {options.swarf_undercut_mm:g} mm",
+             "predicted deviation per band (< 0 overcut, > 0 undercut; before the collision "
+             "and reversal checks):"]
+    for sw in swarf_walls(surfaces, tool, options):
+        f = sw.result.summary()
+        lines.append(
+            f"  {sw.wall.label}: rulings {f['cuttable_rulings']}/{f['rulings']} within "
+            f"tolerance and flutes, per ruling overcut {f['ruling_overcut_mm']:.4f} / "
+            f"undercut {f['ruling_undercut_mm']:.4f} mm, swept overcut "
+            f"{f['swept_overcut_mm']:.4f} / undercut {f['swept_undercut_mm']:.4f} mm, "
+            f"rulings reach {f['max_top_height_mm']:.1f} mm up the tool, "
+            f"{100 * float(f['area_share']):.1f} % of the side")
+    return "\n".join(lines) + "\n"

@@ -13,11 +13,20 @@ narrow strip beside a ruling where a tool crossing the surface at a small angle 
 deepest), and compared with every tool instance within ``window`` instances, which
 covers the tool's reach along the pass. The deviation at a ruling point is the
 smallest over its section strip.
+
+That strip reaches beyond a pass's end ruling, onto surface the last posture touches,
+and so hides the material left *inside* the end ruling where the leaning flank's
+contact curve crosses it (on nine_blade 0.02-0.08 mm within one ruling step of 4
+passes' ends, at the top and bottom of the band). ``pass_deviation`` is the point-wise
+field of one pass: at every surface point between its end rulings the smallest signed
+distance of any of its tool instances; it matches the verifier's samples within
+0.005 mm there too.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,7 +34,7 @@ from numpy.typing import NDArray
 from cam.finishing.flank_tool import FlankTool
 from cam.finishing.swarf import RuledPatch, SwarfPostures, section_points
 
-__all__ = ["SweptDeviation", "blend_postures", "swept_deviation"]
+__all__ = ["SweptDeviation", "blend_postures", "pass_deviation", "swept_deviation"]
 
 Array = NDArray[np.float64]
 
@@ -123,3 +132,52 @@ def swept_deviation(patch: RuledPatch, tool: FlankTool, postures: SwarfPostures,
                                  axes[idx + shift][:, None, None, :])
         best[idx] = np.minimum(best[idx], d)
     return SweptDeviation(u, v, best.min(axis=2))
+
+
+def pass_deviation(point: Callable[[Array, Array], Array], tool: FlankTool,
+                   postures: SwarfPostures, run: NDArray[np.intp], *,
+                   v_range: tuple[float, float] = (0.0, 1.0), refine: int = 8,
+                   samples: int = 21, window: int = 16) -> SweptDeviation:
+    """Point-wise deviation of the band of one pass from its own swept tool.
+
+    Parameters
+    ----------
+    point : callable
+        ``point(u, s)`` of the band, ``(..., 3)`` mm (s in [0, 1] along the ruling).
+    tool : FlankTool
+    postures : SwarfPostures
+        The wall's postures.
+    run : (r,) intp
+        The pass's rulings (consecutive indices, r >= 2).
+    v_range : (float, float)
+        The part of each ruling sampled (s).
+    refine : int
+        Blended postures (and surface rulings) per planned step.
+    samples : int
+        Points per ruling.
+    window : int
+        Tool instances on each side of a surface ruling compared with it (the
+        default reaches two planned steps at ``refine`` 8).
+
+    Returns
+    -------
+    SweptDeviation
+        On the blended rulings between the pass's end rulings (no strip across them):
+        ``min_i d_i`` at each point, mm (< 0 overcut, > 0 undercut).
+    """
+    own = replace(postures, u=postures.u[run], tips=postures.tips[run],
+                  axes=postures.axes[run])
+    u, tips, axes = blend_postures(own, refine)
+    v = np.linspace(v_range[0], v_range[1], samples)
+    pts = point(np.repeat(u[:, None], samples, axis=1), np.broadcast_to(v, (len(u), samples)))
+    best = np.full((len(u), samples), np.inf)
+    m = len(u)
+    for shift in range(-window, window + 1):
+        lo, hi = max(0, -shift), min(m, m - shift)
+        if lo >= hi:
+            continue
+        idx = np.arange(lo, hi)
+        d = tool.signed_distance(pts[idx], tips[idx + shift][:, None, :],
+                                 axes[idx + shift][:, None, :])
+        best[idx] = np.minimum(best[idx], d)
+    return SweptDeviation(u, v, best)

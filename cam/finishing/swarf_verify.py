@@ -5,8 +5,9 @@ stock; the interval ends the program made are exact points of the machined surfa
 Those on a wall's swarf-cut band are measured here against the exact side surface
 (a Gauss-Newton projection onto ``side_segment``: parameters ``(p, v)`` and the signed
 distance along the outward normal, ``< 0`` overcut, ``> 0`` undercut) and compared,
-pass by pass, with the deviation the planner predicted (``BladeSwarfPass.sweep``, the
-swept tool against the exact surface) over the same rulings. Lengths mm.
+pass by pass, with the deviation predicted point by point over the pass's band
+(``swarf_sweep.pass_deviation``: the pass's own swept tool against the exact surface,
+on the same band with the same inset). Lengths mm.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from scipy.spatial import cKDTree
 
 from cam.finishing.swarf_blade import side_segment
 from cam.finishing.swarf_plan import SwarfWall
+from cam.finishing.swarf_sweep import pass_deviation
 
 __all__ = ["MeasuredPass", "measure_passes", "passes_of_program", "project_to_side"]
 
@@ -182,6 +184,22 @@ def _project_range(seg: Any, points: Array, lo: float, hi: float, v_max: float,
     return lo + q * (hi - lo), v, d, index
 
 
+def _predicted(seg: Any, sw: SwarfWall, run: NDArray[np.intp], margin: float) -> Array:
+    """``pass_deviation`` of a pass on its band, ``margin`` inside its top and bottom."""
+    res = sw.result
+    u = res.postures.u
+
+    def point(q: Array, s: Array) -> Array:
+        return np.asarray(seg.point(q, s * np.interp(q, u, res.v_bottom)))
+
+    field = pass_deviation(point, res.flank, res.postures, run, samples=61)
+    ends = point(field.u, np.ones_like(field.u)) - point(field.u, np.zeros_like(field.u))
+    length = np.linalg.norm(ends, axis=1)[:, None]
+    inside = ((field.v[None, :] * length >= margin)
+              & ((1.0 - field.v[None, :]) * length >= margin))
+    return np.asarray(field.deviation[inside])
+
+
 def measure_passes(walls: list[SwarfWall], passes: list[tuple[int, NDArray[np.intp]]],
                    points: Array, leading_edge: str, trailing_edge: str, *,
                    margin: float = 0.5, reach: float = 0.2,
@@ -231,8 +249,7 @@ def measure_passes(walls: list[SwarfWall], passes: list[tuple[int, NDArray[np.in
         inset = margin * bottom / np.maximum(length, 1e-9)
         keep = ((p >= lo) & (p <= hi) & (v >= inset) & (v <= bottom - inset)
                 & (np.abs(d) < reach))
-        rows = (res.sweep.u >= lo - 1e-12) & (res.sweep.u <= hi + 1e-12)
-        predicted = res.sweep.deviation[rows]
+        predicted = _predicted(seg, sw, run, margin)
         if collect is not None:
             collect.append(np.column_stack([points[near[keep]], p[keep], v[keep], d[keep]]))
         nan = (float("nan"), float("nan"))

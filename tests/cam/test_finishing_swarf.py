@@ -170,3 +170,32 @@ def test_developable_cylinder_any_tool(radius: float, tool_r: float, taper: floa
     post = plan_postures(patch, tool, np.linspace(0, 1, 9), samples=11, refine=False)
     assert np.abs(post.deviation_min).max() < 1e-6
     assert np.abs(post.deviation_max).max() < 1e-6
+
+
+def test_pass_deviation_of_a_cylinder_pass_is_exact() -> None:
+    """A pass over part of a cylinder patch, its planned postures only: zero everywhere
+    between its end rulings (the flat flank lies along each ruling)."""
+    from cam.finishing.swarf_sweep import pass_deviation
+
+    patch = cylinder_patch(30.0, 20.0, 0.8, True)
+    tool = FlankTool.flat(5.0, 30.0)
+    post = plan_postures(patch, tool, U)
+    field = pass_deviation(patch.point, tool, post, np.arange(10, 25), refine=1)
+    assert field.u[0] == U[10] and field.u[-1] == U[24]
+    assert np.abs(field.deviation).max() < 1e-6
+
+
+def test_pass_deviation_bounds_the_section_strip_minimum() -> None:
+    """On the twisted patch the point-wise field is nowhere below the strip minimum
+    (which also looks beside the ruling) and shows the material the strip hides."""
+    from cam.finishing.swarf_sweep import pass_deviation
+
+    patch = twisted_patch(4.0, 40.0, 20.0)
+    tool = FlankTool.tapered_ball(4.0, 0.0, 30.0)
+    u = np.linspace(0.0, 1.0, 21)
+    post = plan_postures(patch, tool, u)
+    strip = swept_deviation(patch, tool, post, refine=8, window=16)
+    field = pass_deviation(patch.point, tool, post, np.arange(21), refine=8, window=16)
+    np.testing.assert_array_equal(field.u, strip.u)
+    assert np.all(field.deviation >= strip.deviation - 1e-12)
+    assert field.undercut > 10 * strip.undercut

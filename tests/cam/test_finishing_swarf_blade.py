@@ -77,3 +77,24 @@ def test_tolerances_are_settable(straight: ImpellerSurfaces, tool: FlankTool) ->
     assert result.sweep.overcut > 1e-4
     assert not result.cuttable.all()
     assert result.area_share < 0.75
+
+
+@pytest.mark.slow
+def test_fitted_postures_keep_the_ball_off_the_hub() -> None:
+    """nine_blade's suction side with ``ball6_flank3``: the least-squares fit moved the
+    ball up to 0.15 mm nearer the hub than the tangent-plane posture the band bottom was
+    found with (the solid scene then saw the cutter in the hub at 60 rulings); the band
+    bottom is raised there until every fitted ball centre keeps ``max(R_b, r_f)``."""
+    spec = load_spec(ROOT / "fixtures" / "impellers" / "nine_blade" / "spec.toml")
+    surfaces = build_surfaces(spec)
+    flank = FlankTool.from_tool(load_tool_library(ROOT / "fixtures" / "tools" /
+                                                  "library.toml")["ball6_flank3"])
+    blade = surfaces.blades[1]
+    result = plan_blade_side(blade, surfaces.hub, "suction", flank,
+                             leading_edge=spec.leading_edge, trailing_edge=spec.trailing_edge,
+                             fillet_radius=float(spec.fillet_radius), ruling_step_mm=4.0)
+    post = result.postures
+    need = max(flank.ball_radius, float(spec.fillet_radius))
+    gap = surfaces.hub.signed_distance(post.tips + flank.ball_radius * post.axes) - need
+    assert gap.min() >= -1e-9
+    assert np.any(result.v_bottom < 0.6)  # the band still reaches below mid-span

@@ -4,6 +4,7 @@ checked passes on the developable fixture ``straight`` (issue 23)."""
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -13,7 +14,7 @@ import pytest
 from cam.collision.scene import PostureReport
 from cam.finishing.options import FinishOptions, scallop_stepover
 from cam.finishing.passes import passage_paths
-from cam.finishing.swarf_plan import SwarfWall, covered_by, swarf_walls
+from cam.finishing.swarf_plan import SwarfWall, swarf_walls
 from cam.tools import Tool, load_tool_library
 from geometry.spec import load_spec
 from geometry.surfaces import ImpellerSurfaces, build_surfaces
@@ -56,37 +57,157 @@ def test_swarf_walls_of_the_developable_fixture(walls: list[SwarfWall]) -> None:
         assert np.all(np.diff(sw.blade_u) != 0)
 
 
-def test_covered_blade_passes_are_skipped(straight: ImpellerSurfaces, tool: Tool,
-                                          walls: list[SwarfWall]) -> None:
-    """Blade passes inside the swarf band are left out, the other operations kept.
+def _middle_cut(sw: SwarfWall) -> SwarfWall:
+    """The wall with only its middle half of rulings swarf-cut."""
+    n = len(sw.blade_u)
+    cut = np.zeros(n, dtype=bool)
+    cut[n // 4: 3 * n // 4] = True
+    return SwarfWall(sw.wall, replace(sw.result, cuttable=cut), sw.blade_u)
 
-    On ``straight`` the band reaches v = 0.75 (2 mm above the hub) and the lowest blade
-    pass runs higher (the junction passes finish the fillet strip), so every blade pass
-    is swarf-cut; with every ruling rejected none is.
+
+def _arc(centre: np.ndarray) -> np.ndarray:
+    return np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(centre, axis=0), axis=1))]
+
+
+@pytest.mark.parametrize("middle", [False, True])
+def test_point_passes_are_cut_to_what_swarf_leaves(straight: ImpellerSurfaces, tool: Tool,
+                                                   walls: list[SwarfWall],
+                                                   middle: bool) -> None:
+    """Blade passes keep what the swarf band leaves plus the overlap, nothing deeper.
+
+    A point is left out exactly when it lies ``overlap`` (a stepover) inside a run's
+    band and farther than ``end_overlap`` along its pass from any point that does
+    not (the point passes enter the band by the overlap only); and every sample of the wall between
+    the passes' lowest and highest v is either inside the band or within half a
+    stepover (plus the point spacing) of a kept pass's foot. Other operations are
+    kept whole.
     """
+    from cam.finishing.pieces import kept_pieces
+    from cam.finishing.swarf_plan import point_passes_left
+
+    stepover = scallop_stepover(tool.radius, 0.1)
+    spacing, end = 1.0, stepover + 1.0
+    base = passage_paths(straight, tool.radius, spacing, stepover, blade=True, hub=False,
+                         reach=tool.flute_length - tool.radius)
+    used = [_middle_cut(sw) if middle else sw for sw in walls]
+    keep = point_passes_left(used, stepover, end)
+    assert all(keep(p) is None for p in base if p.operation != "blade")
+    left_out = 0
+    for sw in used:
+        blade = [p for p in base if p.operation == "blade" and p.wall is not None
+                 and p.wall.label == sw.wall.label]
+        assert blade
+        feet = []
+        for p in blade:
+            assert p.wall is not None and p.blade_v is not None
+            u = p.wall.own_u(p.curve_u)
+            found = keep(p)
+            mask = np.ones(len(p), dtype=bool) if found is None else found
+            deep = sw.inside(u, p.blade_v, stepover)
+            assert np.all(mask | deep)  # left out: at least the overlap inside the band
+            if deep.all():
+                assert not mask.any()
+            else:  # kept: within the overlap along the pass of a point not that deep
+                arc = _arc(p.centre)
+                reach = np.abs(arc[:, None] - arc[None, ~deep]).min(axis=1)
+                np.testing.assert_array_equal(mask, reach <= end)
+            left_out += int((~mask).sum())
+            for piece in kept_pieces(p, mask):
+                assert piece.blade_v is not None
+                feet.append(p.wall.blade.side(p.wall.own_u(piece.curve_u),
+                                              piece.blade_v, p.wall.side))
+        v_lo = min(float(p.blade_v.min()) for p in blade if p.blade_v is not None)
+        v_hi = max(float(p.blade_v.max()) for p in blade if p.blade_v is not None)
+        gu, gv = np.meshgrid(np.linspace(0.0, 1.0, 61), np.linspace(v_lo, v_hi, 41))
+        gu, gv = gu.ravel(), gv.ravel()
+        open_ = ~sw.inside(gu, gv, 0.0)
+        if middle:
+            assert open_.any()
+        if open_.any():
+            kept_feet = np.vstack(feet)
+            samples = sw.wall.blade.side(gu[open_], gv[open_], sw.wall.side)
+            gap = np.linalg.norm(samples[:, None, :] - kept_feet[None, :, :], axis=2)
+            assert gap.min(axis=1).max() <= 0.5 * stepover + spacing
+    assert left_out > 0
+
+
+def test_kept_pieces_split_a_pass_into_runs(straight: ImpellerSurfaces, tool: Tool) -> None:
+    from cam.finishing.pieces import kept_pieces
+
+    base = passage_paths(straight, tool.radius, 1.0, scallop_stepover(tool.radius, 0.1),
+                         blade=True, hub=False, reach=tool.flute_length - tool.radius)
+    path = next(p for p in base if p.operation == "blade")
+    n = len(path)
+    whole = kept_pieces(path, np.ones(n, dtype=bool))
+    assert len(whole) == 1 and whole[0] is path
+    assert kept_pieces(path, np.zeros(n, dtype=bool)) == []
+    mask = np.zeros(n, dtype=bool)
+    mask[:5] = True
+    mask[n - 1] = True  # a lone point takes its neighbour
+    pieces = kept_pieces(path, mask)
+    assert [p.name for p in pieces] == [f"{path.name}.s1", f"{path.name}.s2"]
+    assert len(pieces[0]) == 5 and len(pieces[1]) == 2
+    np.testing.assert_array_equal(pieces[0].centre, path.centre[:5])
+    np.testing.assert_array_equal(pieces[1].centre, path.centre[n - 2:])
+
+
+def _is_piece(name: str) -> bool:
+    """A kept piece of a pass (``<pass>.s<k>``)."""
+    return re.search(r"\.s\d+$", name) is not None
+
+
+def test_trimmed_pieces_are_ordered_region_by_region(straight: ImpellerSurfaces, tool: Tool,
+                                                     walls: list[SwarfWall]) -> None:
+    """With the middle half of the rulings swarf-cut, each wall's blade passes are
+    machined whole (or spanning) first, then the pieces before the swarf pass, then
+    those after it; junction passes keep their place; every kept point is planned."""
+    from cam.finishing.pieces import trimmed_passes
+    from cam.finishing.swarf_plan import point_passes_left
+
     stepover = scallop_stepover(tool.radius, 0.1)
     base = passage_paths(straight, tool.radius, 1.0, stepover, blade=True, hub=False,
                          reach=tool.flute_length - tool.radius)
-    blade = [p for p in base if p.operation == "blade"]
-    assert blade
-    skip = covered_by(walls)
-    for p in blade:
-        assert p.blade_v is not None and np.all(p.blade_v <= 0.75)
-        assert skip(p)
-    assert not any(skip(p) for p in base if p.operation != "blade")
-    rejected = [SwarfWall(sw.wall, replace(sw.result, cuttable=np.zeros_like(sw.result.cuttable)),
-                          sw.blade_u) for sw in walls]
-    assert not any(covered_by(rejected)(p) for p in blade)
+    trim = point_passes_left([_middle_cut(sw) for sw in walls], stepover, stepover + 1.0)
+    paths, counts = trimmed_passes(base, trim)
+    assert [p.name for p in paths if p.operation != "blade"] == [
+        p.name for p in base if p.operation != "blade"]
+    assert counts["passes_cut"] > 0
+    assert counts["blade_points_kept"] == sum(len(p) for p in paths if p.operation == "blade")
+    for sw in walls:
+        mine = [p for p in paths if p.operation == "blade" and p.wall is not None
+                and p.wall.label == sw.wall.label]
+        regions = [trim.region(p) if _is_piece(p.name) else -1 for p in mine]
+        assert regions == sorted(regions)
+        assert {0, 1} <= set(regions)
+        for p in mine:
+            if _is_piece(p.name) and trim.region(p) >= 0:  # a piece beside the swarf pass
+                u = p.wall.own_u(p.curve_u) if p.wall is not None else None
+                assert u is not None
+                order = np.sort(sw.blade_u)
+                middle = 0.5 * (order[len(order) // 4] + order[3 * len(order) // 4 - 1])
+                assert (u.max() < middle) == (trim.region(p) == 0)
 
 
-def test_rejected_rulings_are_not_covered(walls: list[SwarfWall]) -> None:
+def test_inside_counts_only_between_a_runs_end_rulings(walls: list[SwarfWall]) -> None:
     sw = walls[0]
     rejected = replace(sw.result, cuttable=np.zeros_like(sw.result.cuttable))
     none = SwarfWall(sw.wall, rejected, sw.blade_u)
     u = np.linspace(sw.blade_u.min(), sw.blade_u.max(), 7)
-    assert not none.covered(u, np.full(7, 0.3)).any()
-    assert sw.covered(u, np.full(7, 0.3)).all()
-    assert not sw.covered(u, np.full(7, 0.95)).any()  # below the band
+    assert not none.inside(u, np.full(7, 0.3)).any()
+    assert sw.inside(u, np.full(7, 0.3)).all()
+    assert not sw.inside(u, np.full(7, 0.95)).any()  # below the band
+    # the depth above the band bottom (v 0.75) along the ruling
+    length = np.linalg.norm(sw.wall.blade.side(u, 0.0, sw.wall.side)
+                            - sw.wall.blade.side(u, 1.0, sw.wall.side), axis=1)
+    depth = (0.75 - 0.70) * length
+    assert sw.inside(u, np.full(7, 0.70), 0.95 * float(depth.min())).all()
+    assert not sw.inside(u, np.full(7, 0.70), 1.05 * float(depth.max())).any()
+    half = _middle_cut(sw)
+    order = np.sort(sw.blade_u)
+    n = len(order)
+    mid = order[n // 4: 3 * n // 4]
+    assert half.inside(mid, np.full(len(mid), 0.3)).all()
+    assert not half.inside(order[:n // 4], np.full(n // 4, 0.3)).any()
 
 
 @pytest.mark.slow
@@ -114,6 +235,29 @@ def test_finish_run_writes_checked_swarf_passes(tmp_path: Path) -> None:
         assert wall["swept_overcut_mm"] <= 0.01 and wall["swept_undercut_mm"] <= 0.03
     entries = [p for p in doc["paths"] if p["operation"] == "swarf"]
     assert all(p["collisions"] == 0 and p["motion_collisions"] == 0 for p in entries)
+
+
+@pytest.mark.slow
+def test_swarf_or_point_run_machines_only_what_swarf_leaves(tmp_path: Path) -> None:
+    """``blade_strategy = "swarf_or_point"`` on ``straight`` (passage 0, surface scene):
+    the blade passes are cut to the strip below the swarf band (plus the overlap), their
+    pieces machined as one pass each, with no collision."""
+    from cam.finishing.command import run_finish
+
+    doc = run_finish(ROOT / "fixtures" / "impellers" / "straight" / "spec.toml",
+                     ROOT / "fixtures" / "machines" / "trunnion-500.toml", "ball4_taper",
+                     tmp_path / "out", scene="surfaces", plots=False, progress=False,
+                     machine_obstacle=False, blade_strategy="swarf_or_point", passages=1,
+                     edge_passes=False, hub_passes=False, scallop_mm=0.1,
+                     point_spacing_mm=1.0)
+    kept = doc["swarf"]["point_passes"]
+    assert 0 < kept["blade_points_kept"] < kept["blade_points"]
+    assert kept["passes_cut"] > 0
+    blade = [p for p in doc["paths"] if p["operation"] == "blade"]
+    assert sum(p["points"] for p in blade) <= kept["blade_points_kept"]
+    assert all(p["collisions"] == 0 and p["motion_collisions"] == 0 for p in blade)
+    assert doc["operations"]["swarf"]["paths"] == 2
+    assert doc["link_collisions"] == 0
 
 
 class _WallAhead:
