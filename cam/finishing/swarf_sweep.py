@@ -121,17 +121,39 @@ def swept_deviation(patch: RuledPatch, tool: FlankTool, postures: SwarfPostures,
     v = np.linspace(0.0, 1.0, samples)
     width = float(tool.radius_at(np.array(tool.flute_length)))
     pts = np.stack([section_points(patch, float(ui), v, width) for ui in u])
-    best = np.full(pts.shape[:3], np.inf)
-    m = len(u)
+    return SweptDeviation(u, v, _windowed_min(tool, pts, tips, axes, window).min(axis=2))
+
+
+def _windowed_min(tool: FlankTool, pts: Array, tips: Array, axes: Array,
+                  window: int) -> Array:
+    """Smallest signed distance of each point to the tool instances within ``window``
+    of its ruling.
+
+    Parameters
+    ----------
+    pts : (m, ..., 3) float64
+        Points, grouped by ruling (first axis), mm.
+    tips, axes : (m, 3) float64
+        The tool instance of each ruling, mm and unit axes.
+    window : int
+        Instances on each side compared.
+
+    Returns
+    -------
+    (m, ...) float64
+        ``min_i d_i``, mm (< 0 overcut, > 0 undercut).
+    """
+    best = np.full(pts.shape[:-1], np.inf)
+    m = len(pts)
+    lead = (slice(None),) + (None,) * (pts.ndim - 2) + (slice(None),)
     for shift in range(-window, window + 1):
         lo, hi = max(0, -shift), min(m, m - shift)
         if lo >= hi:
             continue
         idx = np.arange(lo, hi)
-        d = tool.signed_distance(pts[idx], tips[idx + shift][:, None, None, :],
-                                 axes[idx + shift][:, None, None, :])
+        d = tool.signed_distance(pts[idx], tips[idx + shift][lead], axes[idx + shift][lead])
         best[idx] = np.minimum(best[idx], d)
-    return SweptDeviation(u, v, best.min(axis=2))
+    return best
 
 
 def pass_deviation(point: Callable[[Array, Array], Array], tool: FlankTool,
@@ -170,14 +192,4 @@ def pass_deviation(point: Callable[[Array, Array], Array], tool: FlankTool,
     u, tips, axes = blend_postures(own, refine)
     v = np.linspace(v_range[0], v_range[1], samples)
     pts = point(np.repeat(u[:, None], samples, axis=1), np.broadcast_to(v, (len(u), samples)))
-    best = np.full((len(u), samples), np.inf)
-    m = len(u)
-    for shift in range(-window, window + 1):
-        lo, hi = max(0, -shift), min(m, m - shift)
-        if lo >= hi:
-            continue
-        idx = np.arange(lo, hi)
-        d = tool.signed_distance(pts[idx], tips[idx + shift][:, None, :],
-                                 axes[idx + shift][:, None, :])
-        best[idx] = np.minimum(best[idx], d)
-    return SweptDeviation(u, v, best)
+    return SweptDeviation(u, v, _windowed_min(tool, pts, tips, axes, window))
