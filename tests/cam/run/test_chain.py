@@ -407,7 +407,8 @@ def test_the_finish_stage_rough_run_keeps_the_deviation_the_verify_stage_reads(
         else:
             shutil.copy(source, out / relative)
     ctx = Context(SMALL_SPEC, CHAIN_MACHINE, out, resolve_settings(SMALL_SPEC, **CHAIN_SETTINGS))
-    stock_path = verify_rough(ctx)
+    rough = verify_rough(ctx)
+    stock_path = rough.path
     saved = stock_path.parent / DEVIATION
     assert saved.is_file()
     design = LabelledDesign(SMALL_SPEC)
@@ -415,6 +416,8 @@ def test_the_finish_stage_rough_run_keeps_the_deviation_the_verify_stage_reads(
     points, _, moves = stock.surface_samples()
     known = load_deviation(saved, points, moves, design.distance)
     assert known is not None and known.faces is not None  # read back, not queried
+    # the distance finishing is handed is the verification's design distance
+    assert rough.distance.fingerprint == design.distance.fingerprint
     signed, faces = design.distance.closest(points)
     assert np.array_equal(known.distance, signed) and np.array_equal(known.faces, faces)
     again = stock_deviation(stock, design.distance, saved)
