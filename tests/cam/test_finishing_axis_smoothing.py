@@ -91,6 +91,19 @@ def _rules(centre: np.ndarray) -> PostureRules:
                         hub_contact=False)
 
 
+def _smoothed(scene: Any, kins: Any, options: FinishOptions, centre: np.ndarray,
+              axis: np.ndarray) -> tuple[np.ndarray, Any, np.ndarray, Any]:
+    """The pass (ball centres, axes) checked in ``scene`` and smoothed: tips, the
+    interference, joints and the result (asserted clean before, smoothed after)."""
+    tip = centre - TOOL.radius * axis
+    inter = check_path(scene, TOOL, tip, axis, options)
+    assert not inter.smaller_tool_needed
+    joints = kins.inverse(tip, axis)
+    result = smooth_axis_rate(scene, TOOL, kins, _rules(centre), inter, joints, options)
+    assert result.status == "smoothed"
+    return tip, inter, joints, result
+
+
 def test_a_kink_of_the_axis_rate_is_smoothed_and_checked_on_a_real_scene() -> None:
     plate = trimesh.creation.box(extents=[1.0, 100.0, 20.0])
     plate.apply_translation([-0.5, 0.0, 10.0])
@@ -98,12 +111,7 @@ def test_a_kink_of_the_axis_rate_is_smoothed_and_checked_on_a_real_scene() -> No
     kins = kinematics_for(load_machine(MACHINE))
     options = FinishOptions()
     centre, axis, _ = _kinked_pass()
-    tip = centre - TOOL.radius * axis
-    inter = check_path(scene, TOOL, tip, axis, options)
-    assert not inter.smaller_tool_needed
-    joints = kins.inverse(tip, axis)
-    result = smooth_axis_rate(scene, TOOL, kins, _rules(centre), inter, joints, options)
-    assert result.status == "smoothed"
+    tip, inter, joints, result = _smoothed(scene, kins, options, centre, axis)
     assert result.held.size == 0
     arc = arc_length(centre)
     assert result.rate_jump_before == pytest.approx(rate_jumps(arc, joints[:, 3:5]))
@@ -162,12 +170,7 @@ def test_a_smoothed_posture_that_collides_is_held_and_never_kept() -> None:
     options = FinishOptions()
     centre, axis, lean = _kinked_pass()
     scene: Any = _LeanLimitScene(centre, lean)
-    tip = centre - TOOL.radius * axis
-    inter = check_path(scene, TOOL, tip, axis, options)
-    assert not inter.smaller_tool_needed
-    joints = kins.inverse(tip, axis)
-    result = smooth_axis_rate(scene, TOOL, kins, _rules(centre), inter, joints, options)
-    assert result.status == "smoothed"
+    tip, inter, joints, result = _smoothed(scene, kins, options, centre, axis)
     near = np.flatnonzero(np.abs(centre[:, 1]) <= 3.0)
     assert set(result.held.tolist()) <= set(near.tolist())
     assert result.held.size > 0
