@@ -11,6 +11,14 @@ runs every stage with the chain test's coarse settings on one passage (roughed a
 finished): what is under test is that the installed package finds its data and runs
 each stage to the report, not the passages (the whole chain on every passage is
 ``tests/cam/run/test_chain.py``). Still a minute or two: marked ``slow``.
+
+The numba kernels are not compiled a second time: the checkout's compiled kernels
+(``__pycache__/*.nbi``, ``*.nbc``: ``scripts/test`` compiles them before the tests,
+``tests/warm_kernels.py``) are copied beside the installed modules. numba keys a cached
+kernel on its module's name, the function's line and the sha256 of the source file's
+bytes, which the wheel leaves as they are, so the installed package loads them from its
+own ``__pycache__``; a kernel the checkout has not compiled (a cold checkout: none) the
+installed package compiles itself, as a user's first run does.
 """
 
 from __future__ import annotations
@@ -82,7 +90,25 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (Path(target) / "project-dependencies.pth").write_text(site.getsitepackages()[0] + "\n")
     _run([str(python), "-m", "pip", "install", "-q", "--no-deps", "--no-index", str(wheel)],
          base, timeout=300)
+    copy_compiled_kernels(Path(target))
     return venv / "bin"
+
+
+def copy_compiled_kernels(target: Path) -> int:
+    """Copy the checkout's compiled numba kernels (``__pycache__/*.nbi``, ``*.nbc``)
+    beside the modules installed under ``target`` (site-packages); returns how many
+    files were copied (module docstring)."""
+    copied = 0
+    for package in PACKAGES:
+        for cached in sorted((ROOT / package).rglob("__pycache__/*.nb[ic]")):
+            source = cached.parent.parent
+            if not (target / source.relative_to(ROOT)).is_dir():
+                continue  # a folder the wheel does not hold
+            folder = target / cached.parent.relative_to(ROOT)
+            folder.mkdir(exist_ok=True)
+            shutil.copyfile(cached, folder / cached.name)
+            copied += 1
+    return copied
 
 
 @pytest.mark.slow
