@@ -1,6 +1,6 @@
 """Issue 28 on a design the chain was not tuned on: round trailing edges, a thickness law.
 
-The whole chain (``impeller-cam run``) on ``fixtures/impellers/round_te`` (eight blades,
+The whole chain (``impeller-cam run``) on ``fixtures/impellers/round_te`` (six blades,
 round trailing edges, the design generator's thickness law) at the chain test's coarse
 settings: every milled face (pressure, suction, hub, the strips next to the fillets,
 the fillets, the leading and the round trailing edges) within allowance + scallop +
