@@ -280,16 +280,17 @@ def program_moves(
     rotating = (turn >= 1e-12) | ~np.all(
         poser.joints_prog[1:, 3:] == poser.joints_prog[:-1, 3:], axis=1
     )
+    # a block that passes keeps its count and would pass again: each round checks only
+    # the blocks whose count the round before doubled
+    pending = blocks[rotating]
     for _ in range(12):
-        sub_block = np.repeat(blocks, count)
-        first = np.cumsum(count) - count
-        index = np.arange(len(sub_block)) - np.repeat(first, count)
-        f0 = index / count[sub_block]
-        f1 = (index + 1) / count[sub_block]
-        check = rotating[sub_block]
-        if not check.any():
+        if not len(pending):
             break
-        cb, c0, c1 = sub_block[check], f0[check], f1[check]
+        cb = np.repeat(pending, count[pending])
+        first = np.cumsum(count[pending]) - count[pending]
+        index = np.arange(len(cb)) - np.repeat(first, count[pending])
+        c0 = index / count[cb]
+        c1 = (index + 1) / count[cb]
         quarter = np.stack([c0, 0.75 * c0 + 0.25 * c1, 0.5 * (c0 + c1), 0.25 * c0 + 0.75 * c1, c1])
         tips_q, axes_q = poser.at(np.tile(cb, 5), quarter.ravel())
         tips_q = tips_q.reshape(5, -1, 3)
@@ -308,8 +309,7 @@ def program_moves(
             break
         failing = np.unique(cb[bad])
         count[failing] = np.minimum(2 * count[failing], MAX_SUBMOVES)
-        if np.all(count[failing] >= MAX_SUBMOVES):
-            break
+        pending = failing[count[failing] < MAX_SUBMOVES]
     sub_block = np.repeat(blocks, count)
     first = np.cumsum(count) - count
     index = np.arange(len(sub_block)) - np.repeat(first, count)

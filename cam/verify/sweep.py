@@ -47,6 +47,7 @@ import math
 import numpy as np
 from numba import njit
 
+from cam.verify.dexel import TILE
 from cam.verify.footprint import box_side, capsule, grid_rows, piece_misses, tile_columns
 from cam.verify.interval import (
     capsule_row,
@@ -110,7 +111,7 @@ def sweep_grid(  # type: ignore[no-untyped-def]
     the grid, kept up to date by the call (contiguous per row, so the material test
     vectorises). ``tile_lo``, ``tile_hi``: the tiles' material range, a bound (stale
     is conservative); ``tile_dirty`` flags the tiles whose rays the call changed
-    (``dexel.SweepIndex``).
+    (``dexel.SweepIndex``). ``tile`` must be ``dexel.TILE`` (compiled in as a constant).
 
     ``acc`` (R,) float64 zeros and ``touched`` (R + 1,) int64 (``touched[0]``: count)
     hold the per-ray cut of the move in progress, so a move resumed after a pool
@@ -120,6 +121,9 @@ def sweep_grid(  # type: ignore[no-untyped-def]
     Returns -1 when done, else the position (band of rows and move) at which the pool
     overflowed: grow it and call again with that as ``first``.
     """
+    if tile != TILE:
+        raise ValueError("sweep_grid: tile must be dexel.TILE")
+    tile = TILE  # a compile-time constant: the divisions by it become shifts
     ia = (k + 1) % 3
     ja = (k + 2) % 3
     ni = shape[0]
@@ -272,6 +276,8 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                             n_sel = nspan
                         if n_sel == 0:
                             continue
+                        jc_lo = nspan  # the span's first and last changed ray
+                        jc_hi = -1
                         if rowwise and normal:
                             normal_row(row_c, row_d, row_ok, row_sel, n_sel, cj0, step, h,
                                        w0, tipg[1], -tipg[2], ag[0], ag[1], ag[2], dg[0], dg[1],
@@ -410,6 +416,10 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                                 got = _subtract(lo, hi, lom, him, start, count, cap, used, r,
                                                 ta, tb, mid)
                                 if got < 0.0:
+                                    if jc_hi >= 0:
+                                        for tj in range((j0 + jc_lo * step) // tile,
+                                                        (j0 + jc_hi * step) // tile + 1):
+                                            tile_dirty[ti, tj] = True
                                     _add_counts(counters, n_c0, n_c1, n_c2, n_c3, n_c4, n_c5)
                                     stats[mv, 0] += removed
                                     stats[mv, 2] += overlap
@@ -417,7 +427,8 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                                     return band * n_moves + mv
                                 base = start[r]
                             n = count[r]
-                            tile_dirty[ti, (j0 + m * step) // tile] = True
+                            jc_lo = min(jc_lo, m)
+                            jc_hi = max(jc_hi, m)
                             mat_lo[r] = lo[base] if n > 0 else np.inf
                             mat_hi[r] = hi[base + n - 1] if n > 0 else -np.inf
                             gap_lo[r] = hi[base] if n > 1 else np.inf
@@ -429,6 +440,11 @@ def sweep_grid(  # type: ignore[no-untyped-def]
                                     touched[0] += 1
                                     touched[touched[0]] = r
                                 acc[r] += got
+                        # the tiles the span changed (one division a span, not a ray)
+                        if jc_hi >= 0:
+                            for tj in range((j0 + jc_lo * step) // tile,
+                                            (j0 + jc_hi * step) // tile + 1):
+                                tile_dirty[ti, tj] = True
             stats[mv, 0] += removed
             stats[mv, 2] += overlap
             stats[mv, 3] = max(stats[mv, 3], overlap_max)
