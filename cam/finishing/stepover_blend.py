@@ -15,9 +15,14 @@ system replaces the corner by a **blend** tangent to both passes:
   is ``2 |t_a x (P3 - P0 - h t_b)| / (3 h^2)`` (for a U-turn over a stepover ``c``,
   ``2 c / (3 h^2)``). The reach ``h`` is tried from the longest
   (``BLEND_REACHES`` times the stepover); the first blend whose checks pass is kept.
-* **Tool axis**: on the great circle from ``a``'s last axis to ``b``'s first, at the
-  smoothstep ``3 s^2 - 2 s^3`` of the curve parameter: the rotary axes start and end
-  the blend at rest relative to the path (no rotary jerk at its ends).
+* **Tool axis**: the same cubic Bezier on the axes, normalised, its end derivatives
+  matched to the passes' axis rates per mm of tip path (``A1 = A0 + h r_a``,
+  ``A2 = A3 - h r_b``): on a table-tilting machine the linear joints carry the part's
+  rotation (0.8 deg of C per mm of tip is ~1.4 mm of X/Y at 100 mm from the C axis),
+  so a blend tangent at the tip but with the axis rate jumping to zero still has a
+  joint-space corner at each end, where the control slows to 3 mm/s (measured on
+  the main job's blade passes). Without rates (``rate0 = rate1 = None``): the great
+  circle at the smoothstep ``3 s^2 - 2 s^3`` (the axis at rest at both ends).
 * **Checks** (as the straight stepover): the rotary joints turn at most
   ``FEED_LINK_TURN`` over the move, and the whole move is free as a cut with the
   cutter shrunk by ``FEED_LINK_GOUGE`` (shank and holder ``clearance`` away).
@@ -80,17 +85,20 @@ class Stepover:
         return self.reach > 0.0
 
 
-def _direction(points: Array, at_end: bool) -> Array | None:
-    """Unit direction of a pass's last (``at_end``) or first chord; None if too short."""
-    if len(points) < 2:
+def _direction(p: PassEnds, at_end: bool) -> tuple[Array, Array] | None:
+    """Unit direction of a pass's last (``at_end``) or first chord and its tool-axis
+    change per mm (1/mm); None if the pass has no chord."""
+    if len(p.tip) < 2:
         return None
-    chord = points[-1] - points[-2] if at_end else points[1] - points[0]
+    pair = slice(-2, None) if at_end else slice(0, 2)
+    chord, turn = np.diff(p.tip[pair], axis=0)[0], np.diff(p.axis[pair], axis=0)[0]
     length = float(np.linalg.norm(chord))
-    return None if length < 1e-9 else np.asarray(chord / length)
+    return None if length < 1e-9 else (np.asarray(chord / length), np.asarray(turn / length))
 
 
 def blend_curve(start: Array, leave: Array, end: Array, enter: Array, axis0: Array,
-                axis1: Array, reach: float, count: int = BLEND_POINTS
+                axis1: Array, reach: float, count: int = BLEND_POINTS,
+                rate0: Array | None = None, rate1: Array | None = None
                 ) -> tuple[Array, Array]:
     """The blend's postures: cubic Bezier tip tangent to both passes, axis slerped.
 
@@ -106,6 +114,9 @@ def blend_curve(start: Array, leave: Array, end: Array, enter: Array, axis0: Arr
         Tangent reach ``h``, mm.
     count : int
         Number of moves.
+    rate0, rate1 : (3,) float64, optional
+        Tool-axis change per mm of tip path of the pass left (at its end) and of the
+        pass entered (at its start), 1/mm: the axis follows a Bezier matching them.
 
     Returns
     -------
@@ -116,8 +127,14 @@ def blend_curve(start: Array, leave: Array, end: Array, enter: Array, axis0: Arr
     p1, p2 = start + reach * leave, end - reach * enter
     tip = ((1 - s) ** 3 * start + 3 * (1 - s) ** 2 * s * p1 + 3 * (1 - s) * s ** 2 * p2
            + s ** 3 * end)
-    ease = (3.0 * s ** 2 - 2.0 * s ** 3)[:, 0]
-    axis = slerp(np.tile(axis0, (count, 1)), np.tile(axis1, (count, 1)), ease)
+    if rate0 is not None and rate1 is not None:
+        a1, a2 = axis0 + reach * rate0, axis1 - reach * rate1
+        axis = ((1 - s) ** 3 * axis0 + 3 * (1 - s) ** 2 * s * a1
+                + 3 * (1 - s) * s ** 2 * a2 + s ** 3 * axis1)
+        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    else:
+        ease = (3.0 * s ** 2 - 2.0 * s ** 3)[:, 0]
+        axis = slerp(np.tile(axis0, (count, 1)), np.tile(axis1, (count, 1)), ease)
     tip[-1] = end
     axis[-1] = axis1
     return np.asarray(tip), np.asarray(axis)
@@ -156,12 +173,12 @@ def feed_stepover(linker: Linker, a: PassEnds, b: PassEnds) -> Stepover | None:
     if not 0.0 < chord <= r.feed_link:
         return None
     allowance = min(r.cutter_allowance, FEED_LINK_GOUGE)
-    leave, enter = _direction(a.tip, True), _direction(b.tip, False)
+    leave, enter = _direction(a, True), _direction(b, False)
     candidates: list[tuple[Array, Array, float]] = []
     if leave is not None and enter is not None:
         for scale in BLEND_REACHES:
-            tip, axis = blend_curve(start, leave, end, enter, a.axis[-1], b.axis[0],
-                                    scale * chord)
+            tip, axis = blend_curve(start, leave[0], end, enter[0], a.axis[-1], b.axis[0],
+                                    scale * chord, rate0=leave[1], rate1=enter[1])
             candidates.append((tip, axis, scale * chord))
     candidates.append((end[None], b.axis[:1], 0.0))
     for tip, axis, reach in candidates:

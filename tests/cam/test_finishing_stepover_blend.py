@@ -96,3 +96,23 @@ def test_a_blended_stepover_halves_the_contour_error_of_the_zigzag_corner() -> N
         worst[blend] = float(report.deviation[feed][turn].max())
     assert worst[False] > 0.1  # the sharp corner: over 100 um
     assert worst[True] < 0.6 * worst[False]
+
+
+def test_the_blend_carries_the_passes_axis_rates_through_its_ends() -> None:
+    """With the passes' axis rates (per mm of tip path) the blend's axis leaves and
+    arrives at those rates: no rotary-rate jump, hence no joint-space corner, at its
+    ends. Pass a turns its axis about y at 0.01 rad/mm going +x; pass b, reversed,
+    turns it back at the same rate going -x."""
+    theta = 0.02
+    axis0 = np.array([math.sin(theta), 0.0, math.cos(theta)])
+    axis1 = np.array([math.sin(theta + 0.005), 0.0, math.cos(theta + 0.005)])
+    rate0 = 0.01 * np.array([math.cos(theta), 0.0, -math.sin(theta)])
+    rate1 = -0.01 * np.array([math.cos(theta + 0.005), 0.0, -math.sin(theta + 0.005)])
+    start, end = np.zeros(3), np.array([0.0, 1.5, 0.0])
+    tip, axis = blend_curve(start, np.array([1.0, 0, 0]), end, np.array([-1.0, 0, 0]),
+                            axis0, axis1, 2.25, count=20000, rate0=rate0, rate1=rate1)
+    first = (axis[0] - axis0) / np.linalg.norm(tip[0] - start)
+    last = (axis[-1] - axis[-2]) / np.linalg.norm(tip[-1] - tip[-2])
+    np.testing.assert_allclose(first, rate0, atol=2e-5)
+    np.testing.assert_allclose(last, rate1, atol=2e-5)
+    np.testing.assert_allclose(np.linalg.norm(axis, axis=1), 1.0, atol=1e-12)
