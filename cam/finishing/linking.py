@@ -44,6 +44,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam.finishing.envelope import Envelope, retract_length, stepped_link
+from cam.finishing.lead_blend import tangent_leads
+from cam.finishing.stepover_blend import Stepover, feed_stepover
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
 from postproc.kinematics.base import OverTravelError
 from postproc.pole import keeps_branch
@@ -63,10 +65,6 @@ DEPARTURE_SCALES = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0)
 _LEVELS = ("direct", "clearance", "retract")
 #: Rounds of that check.
 _ROUNDS = 4
-#: Largest A or C turn of a stepover at feed between two passes, rad.
-_FEED_LINK_TURN = math.radians(10.0)
-#: Cutter shrink of a stepover's check, mm (its chord dips into a convex design).
-_FEED_LINK_GOUGE = 0.01
 
 
 @dataclass(frozen=True)
@@ -94,8 +92,9 @@ class LinkRules:
     turn_step : float
         Largest rotation about +Z between points of a fallback link, rad.
     feed_link : float
-        Passes whose ends are at most this far apart are joined by one move at feed
-        (a zig-zag stepover, checked as a cut), mm; 0: never.
+        Passes whose ends are at most this far apart are joined at feed (a zig-zag
+        stepover, blended tangent to both passes where it is clear: ``stepover_blend``;
+        checked as a cut), mm; 0: never.
     """
 
     tool: Tool
@@ -274,27 +273,10 @@ class Linker:
                 return point, float(lengths[index // per_length])
         return None
 
-    def feed_link(self, a: PassEnds, b: PassEnds) -> bool:
-        """Can pass ``a`` go on into pass ``b`` by one feed move (a zig-zag stepover)?
-
-        When their ends are at most ``feed_link`` mm apart, the rotary joints turn less
-        than ``_FEED_LINK_TURN`` and the move (tip straight, axis on the great circle,
-        as the post linearises it) is free as a cut: the cutter shrunk by
-        ``_FEED_LINK_GOUGE``, shank and holder ``clearance`` away (a 5 mm chord over a
-        convex R 60 mm dips 0.052 mm, past the verifier's 0.05 mm gouge tolerance).
-        """
-        r = self.rules
-        tips = np.stack([a.tip[-1], b.tip[0]])
-        axes = np.stack([a.axis[-1], b.axis[0]])
-        if not 0.0 < float(np.linalg.norm(tips[1] - tips[0])) <= r.feed_link:
-            return False
-        # a feed move: the post keeps its branch unless its axis passes the C axis
-        keep = keeps_branch(axes, np.array([False, True]), DEFAULT_TOLERANCES.angular)
-        q = self.kins.inverse(tips, axes, previous=a.joints_end,
-                              keep_branch=keep if keep.any() else None)
-        if float(np.abs(q[1, 3:] - q[0, 3:]).max()) > _FEED_LINK_TURN:
-            return False
-        return self._feed_free(tips, axes, min(r.cutter_allowance, _FEED_LINK_GOUGE))
+    def feed_link(self, a: PassEnds, b: PassEnds) -> Stepover | None:
+        """Pass ``a`` goes on into pass ``b`` at feed by this stepover (a zig-zag's
+        tangent blend, else one straight move), or None (``stepover_blend``)."""
+        return feed_stepover(self, a, b)
 
     # -- the operation ---------------------------------------------------------------
 
@@ -324,11 +306,13 @@ class Linker:
         """
         starts = [self.escape(p.tip[0], p.axis[0], p.escape_start) for p in passes]
         ends = [self.escape(p.tip[-1], p.axis[-1], p.escape_end) for p in passes]
-        stepover = [not b.from_air and self.feed_link(a, b)
+        stepover = [None if b.from_air else self.feed_link(a, b)
                     for a, b in zip(passes[:-1], passes[1:], strict=True)]
+        starts, ends, leads = tangent_leads(self, passes, starts, ends, stepover)
         floor: dict[int, int] = {}
         for _ in range(_ROUNDS):
-            moves, air, reports, owner = self._build(passes, starts, ends, stepover, floor)
+            moves, air, reports, owner = self._build(passes, starts, ends, stepover, floor,
+                                                      leads)
             tip = np.array(moves.tip)
             axis = _unit(np.array(moves.axis))
             link = np.array(moves.link, bool)
@@ -350,11 +334,13 @@ class Linker:
         return toolpath, np.array(air, bool), reports
 
     def _build(self, passes: Sequence[PassEnds], starts: list[tuple[Array, float] | None],
-               ends: list[tuple[Array, float] | None], stepover: list[bool],
-               floor: dict[int, int]
+               ends: list[tuple[Array, float] | None], stepover: list[Stepover | None],
+               floor: dict[int, int],
+               leads: tuple[list[Array | None], list[Array | None]] = ([], [])
                ) -> tuple[_Moves, list[bool], list[dict[str, Any]], dict[int, int]]:
         """The operation's poses; ``stepover[k]``: pass k goes on into pass k + 1 at
-        feed; ``floor[k]``: lowest kind index for link k."""
+        feed; ``floor[k]``: lowest kind index for link k; ``leads``: per pass the
+        tangent approach's and departure's tips (``lead_blend``; None: straight)."""
         r = self.rules
         moves = _Moves()
         air: list[bool] = []
@@ -378,11 +364,13 @@ class Linker:
                                                  r.longest)[0] * p.axis[0]
             entry = start[0] if start is not None else outer_in
             approach_mm = None if start is None else start[1]
-            if index and stepover[index - 1]:
+            step = stepover[index - 1] if index else None
+            if step is not None:
                 # the stepover at feed into this pass, no departure, link or approach
                 reports.append({"from": previous_name, "to": p.name, "kind": "feed",
                                 "departure_mm": None, "approach_mm": round(float(
-                                    np.linalg.norm(p.tip[0] - passes[index - 1].tip[-1])), 4)})
+                                    np.linalg.norm(p.tip[0] - passes[index - 1].tip[-1])), 4),
+                                "blend_reach_mm": round(step.reach, 4)})
             elif exit_point is None:
                 # first pass: the post positions above the cylinder point, then in; a
                 # cylinder point beyond the machine's travel is left out (the post's
@@ -402,17 +390,26 @@ class Linker:
                                   floor.get(len(reports), 0))
                 reports.append({"from": previous_name, "to": p.name, "kind": kind,
                                 "departure_mm": exit_point[3], "approach_mm": approach_mm})
-            stepped = bool(index and stepover[index - 1])
+            if step is not None and step.blended:  # the blend up to the pass's start
+                add(step.tip[:-1], step.axis[:-1], MoveKind.PLUNGE, r.feed, False, True)
+            curve = leads[0][index] if step is None and leads[0] else None
+            if curve is not None:  # the tangent approach up to the pass's start
+                add(curve[:-1], np.tile(p.axis[0], (len(curve) - 1, 1)), MoveKind.PLUNGE,
+                    r.feed, False, True)
             add(p.tip[0], p.axis[0], MoveKind.PLUNGE,
-                r.feed if start is not None or stepped else half, False, True)
+                r.feed if start is not None or step is not None else half, False, True)
             add(p.tip[1:], p.axis[1:], MoveKind.FEED, r.feed, False, False)
             end = ends[index]
             previous_name = p.name
-            if index < len(passes) - 1 and stepover[index]:
+            if index < len(passes) - 1 and stepover[index] is not None:
                 exit_point = (p.tip[-1], p.axis[-1], p.joints_end, 0.0)
                 continue
             if end is not None:
                 exit_point = (end[0], p.axis[-1], p.joints_end, end[1])
+                curve = leads[1][index] if leads[1] else None
+                if curve is not None:  # the tangent departure up to its end
+                    add(curve[:-1], np.tile(p.axis[-1], (len(curve) - 1, 1)),
+                        MoveKind.RETRACT, r.feed, False, True)
                 add(end[0], p.axis[-1], MoveKind.RETRACT, r.feed, False, True)
             else:
                 out = p.tip[-1] + retract_length(p.tip[-1:], p.axis[-1:], r.envelope,

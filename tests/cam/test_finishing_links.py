@@ -18,7 +18,9 @@ import pytest
 import trimesh
 
 from cam.collision import CollisionScene
+from cam.finishing.lead_blend import LEAD_POINTS
 from cam.finishing.linking import Envelope, Linker, LinkRules, PassEnds
+from cam.finishing.stepover_blend import BLEND_POINTS, BLEND_REACHES
 from cam.tools import resolve_tool
 from postproc.apt import format_apt, parse_apt
 from postproc.kinematics import kinematics_for
@@ -78,12 +80,16 @@ def test_half_turn_link_is_one_checked_move_and_one_rotary_block(tmp_path: Path)
     cut = np.flatnonzero(toolpath.kind == MoveKind.FEED)
     gap = np.arange(cut[9] + 1, cut[10])  # between the passes' feed moves
     kinds = toolpath.kind[gap].tolist()
-    assert kinds == [MoveKind.RETRACT, MoveKind.RAPID, MoveKind.PLUNGE]
-    assert toolpath.link[gap[1]], "the half turn is a checked link"
+    # tangent departure and approach (lead_blend), one checked rapid between them
+    assert kinds == [MoveKind.RETRACT] * LEAD_POINTS + [MoveKind.RAPID] + \
+        [MoveKind.PLUNGE] * LEAD_POINTS
+    link = gap[LEAD_POINTS]
+    assert toolpath.link[link], "the half turn is a checked link"
     assert air[gap].all() and not air[cut].any()
-    # departure and approach: 2 mm along the tool axis at the cutting feed
-    assert np.linalg.norm(toolpath.tip[gap[0]] - toolpath.tip[gap[0] - 1]) == pytest.approx(2.0)
-    assert toolpath.feed[gap[0]] == toolpath.feed[gap[2]] == 1000.0
+    # the departure: a quarter arc of radius 2 mm (the escape's length) up to the axis
+    assert np.linalg.norm(toolpath.tip[link - 1] - toolpath.tip[gap[0] - 1]) == \
+        pytest.approx(2.0 * math.sqrt(2.0))
+    assert (toolpath.feed[gap[gap != link]] == 1000.0).all()
     # APT: one GOTO for the link; NC: one rotary G0, no retract inside the operation
     text = format_apt([toolpath])
     assert text.count("$$ LINK") == int(toolpath.link.sum())
@@ -150,11 +156,23 @@ def test_adjacent_zigzag_passes_step_over_at_feed() -> None:
                                        cutter=Cutter(4.0, 2.0, 15.0), spindle_rpm=None)
     assert [link["kind"] for link in links] == ["feed"]
     assert links[0]["approach_mm"] == pytest.approx(1.5)
+    assert links[0]["blend_reach_mm"] == pytest.approx(BLEND_REACHES[0] * 1.5)
     cut = np.flatnonzero(toolpath.kind == MoveKind.FEED)
     step = cut[7] + 1  # the first pass has 8 feed moves after its first point
-    assert toolpath.kind[step] == MoveKind.PLUNGE and air[step]
-    np.testing.assert_allclose(toolpath.tip[step], passes[1].tip[0])
+    moves = slice(step, step + BLEND_POINTS)  # the blend, ending at the next pass
+    assert (toolpath.kind[moves] == MoveKind.PLUNGE).all() and air[moves].all()
+    np.testing.assert_allclose(toolpath.tip[step + BLEND_POINTS - 1], passes[1].tip[0])
     np.testing.assert_allclose(toolpath.tip[step - 1], passes[0].tip[-1])
+    # tangent to both passes: from the first pass's last chord to the second's first
+    # no turn sharper than a 12th of the U-turn's 180 degrees plus the Bezier's spread
+    path = toolpath.tip[step - 2:step + BLEND_POINTS + 1]
+    chords = np.diff(path, axis=0)
+    chords /= np.linalg.norm(chords, axis=1, keepdims=True)
+    turns = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", chords[1:], chords[:-1]),
+                                         -1.0, 1.0)))
+    assert turns.sum() == pytest.approx(180.0, abs=1e-6) and turns.max() < 30.0
+    np.testing.assert_allclose(path[:, 2], 30.0, atol=1e-12)  # on the plate's top
+    assert path[:, 1].max() < 8.0 + 0.75 * BLEND_REACHES[0] * 1.5 + 1e-9
     # a rib standing between the two ends: linked the usual way
     rib = trimesh.creation.box(extents=(0.6, 4.0, 6.0))
     rib.apply_translation([38.75, 8.0, 33.0])
@@ -239,4 +257,4 @@ def test_a_stepover_chord_may_not_dip_into_a_convex_surface(step_mm: float,
     linker = Linker(linker.scene, KINS, replace(linker.rules, feed_link=5.0))
     dip = step_mm ** 2 / (8.0 * radius)
     assert (dip < 0.01) == feed and dip < 0.05
-    assert linker.feed_link(first, second) is feed
+    assert (linker.feed_link(first, second) is not None) is feed
