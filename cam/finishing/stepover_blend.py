@@ -41,6 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
+from postproc.kinematics.base import OverTravelError
 from postproc.linearise import slerp
 from postproc.pole import keeps_branch
 
@@ -141,12 +142,17 @@ def blend_curve(start: Array, leave: Array, end: Array, enter: Array, axis0: Arr
 
 
 def _turn_ok(linker: Linker, a: PassEnds, tips: Array, axes: Array) -> bool:
-    """The rotary joints stay within ``FEED_LINK_TURN`` of ``a``'s last over the move."""
+    """The rotary joints stay within ``FEED_LINK_TURN`` of ``a``'s last over the move
+    (and inside the machine's travel: a blend whose axis swings past a rotary limit is
+    not a candidate)."""
     moving = np.ones(len(tips), bool)
     moving[0] = False
     keep = keeps_branch(axes, moving, DEFAULT_TOLERANCES.angular)
-    q = linker.kins.inverse(tips, axes, previous=a.joints_end,
-                            keep_branch=keep if keep.any() else None)
+    try:
+        q = linker.kins.inverse(tips, axes, previous=a.joints_end,
+                                keep_branch=keep if keep.any() else None)
+    except OverTravelError:
+        return False
     return float(np.abs(q[1:, 3:] - q[0, 3:]).max()) <= FEED_LINK_TURN
 
 
