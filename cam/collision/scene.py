@@ -273,6 +273,10 @@ class CollisionScene:
     @property
     def whole_object(self) -> fcl.CollisionObject:
         """fcl object of all scene meshes merged (clearance queries; built on first use)."""
+        if self._whole_object is None and len(self.roles) == 1:
+            # one role: its mesh is the merged one (the same vertices and faces), so
+            # its fcl object is shared rather than its BVH built a second time
+            self._whole_object = self.objects[self.roles[0]]
         if self._whole_object is None:
             merged = self._merged
             self._whole_object = fcl.CollisionObject(

@@ -32,6 +32,7 @@ from cam.tools import Tool
 
 if TYPE_CHECKING:
     from cam.collision import CollisionScene
+    from cam.collision.scene import PostureReport
 
 __all__ = [
     "InterferenceResult",
@@ -104,16 +105,33 @@ class InterferenceResult:
         return bool(self.interfering_points.size)
 
 
-def check_path(scene: CollisionScene, tool: Tool, tip: Array, axis: Array,
-               options: FinishOptions) -> InterferenceResult:
-    """Check the postures and the motion between them (no remedy)."""
-    report = scene.check_postures(tool, tip, axis,
-                                  cutter_allowance=options.cutter_allowance_mm,
-                                  clearance_cap=options.clearance_exact_mm,
-                                  clearance_limits=(options.clearance_mm,))
+def _posture_report(scene: CollisionScene, tool: Tool, tip: Array, axis: Array,
+                    options: FinishOptions) -> PostureReport:
+    """``check_path``'s check of the postures alone."""
+    return scene.check_postures(tool, tip, axis, cutter_allowance=options.cutter_allowance_mm,
+                                clearance_cap=options.clearance_exact_mm,
+                                clearance_limits=(options.clearance_mm,))
+
+
+def _posture_bad(report: PostureReport, options: FinishOptions) -> NDArray[np.bool_]:
+    """Postures in contact or with shank/holder closer than ``clearance_mm``."""
     clearance = np.asarray(report.clearance, dtype=np.float64)
-    collides = np.asarray(report.collides, dtype=bool) | (
+    return np.asarray(report.collides, dtype=bool) | (
         np.isfinite(clearance) & (clearance < options.clearance_mm))
+
+
+def check_path(scene: CollisionScene, tool: Tool, tip: Array, axis: Array,
+               options: FinishOptions, postures: PostureReport | None = None
+               ) -> InterferenceResult:
+    """Check the postures and the motion between them (no remedy).
+
+    ``postures``: the postures' check already made (``_posture_report`` of the same
+    postures), reused as is.
+    """
+    report = postures if postures is not None else _posture_report(scene, tool, tip, axis,
+                                                                   options)
+    clearance = np.asarray(report.clearance, dtype=np.float64)
+    collides = _posture_bad(report, options)
     if len(tip) > 1:
         motion = scene.check_motion(tool, tip, axis, max_step_mm=options.motion_step_mm,
                                     max_step_deg=options.motion_step_deg,
@@ -284,10 +302,20 @@ def _search(scene: CollisionScene, tool: Tool, centre: Array, axis: Array, sign:
         if trial.interfering_points.size < best.interfering_points.size:
             best = trial
     # no step is free: the step with the fewest interfering postures (the first of
-    # equals), as if every step had been checked in full
+    # equals), as if every step had been checked in full. A step's count is at least
+    # that of its interfering postures: when those alone cannot beat the best, its
+    # motion is not checked (the choice is the same).
     for k_failed in failed:
         if k_failed > 0:
-            trial = full(k_failed)
+            turned = _turned(axis, sign, k_failed, step)
+            postures = _posture_report(scene, tool, centre - radius * turned, turned, options)
+            count = int(_posture_bad(postures, options).sum())
+            most = best.interfering_points.size
+            if count > most or (count == most and k_failed >= best.steps):
+                continue
+            trial = check_path(scene, tool, centre - radius * turned, turned, options,
+                               postures)
+            trial.delta_c, trial.steps, trial.c_max = k_failed * step, k_failed, limit
             if trial.interfering_points.size < best.interfering_points.size or (
                     trial.interfering_points.size == best.interfering_points.size
                     and trial.steps < best.steps):

@@ -310,15 +310,21 @@ class StockScene(CollisionScene):
                      ends: PostureReport | None = None) -> PostureReport:
         """``CollisionScene.check_motion`` against the design and the excess stock.
 
-        ``ends`` is accepted for the interface and not used: a combined report cannot
-        stand for the design's own end samples, so both scenes check them again.
+        ``ends`` (this scene's ``check_postures`` on the same postures: design and
+        stock combined) stands for the design's end samples, which the design scene
+        then skips; the stock scene checks every sample, ends included (its own part
+        of ``ends`` cannot be told apart). The combination is the same as without
+        ``ends``: contacts are or-ed and clearances the smaller of the two (an end's
+        is already the smaller), so a segment collides, or comes closer than a limit,
+        exactly when it does without them. Only which contact a segment reports
+        first can differ where the stock touches at its end posture and the design
+        in between: that end posture collides in ``ends`` itself.
         """
-        del ends
         first = self.design.check_motion(
             tool, tip, axis, max_step_mm=max_step_mm, max_step_deg=max_step_deg,
             parts=parts, cutter_allowance=cutter_allowance, cutter_roles=cutter_roles,
             clearance=clearance, clearance_cap=clearance_cap,
-            clearance_limits=clearance_limits)
+            clearance_limits=clearance_limits, ends=ends)
         return self._combine(first, self._stock_call(
             "check_motion", tool, tip, axis, parts, cutter_allowance, clearance,
             clearance_cap, clearance_limits,

@@ -101,11 +101,13 @@ def _every_step(scene: CollisionScene, centre: np.ndarray, axis: np.ndarray, sig
     return best_k * step, k, best.interfering_points.tolist()
 
 
-@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("seed", [*range(6), 11, 15, 25, 29])
 def test_probed_steps_give_the_result_of_checking_every_step(
         wall_scene: CollisionScene, seed: int) -> None:
     """Random leaning paths (even seeds freed after 16-39 steps, odd ones never): the probed
-    remedy picks the same step, the same count of steps and the same points."""
+    remedy picks the same step, the same count of steps and the same points. (Seeds 11,
+    15, 25, 29: among the steps never freed, some whose interfering postures alone lose
+    to the best are not motion-checked.)"""
     rng = np.random.default_rng(seed)
     n = 9
     near, lean = (2.5, 14.0) if seed % 2 else (3.0, 8.0)  # odd seeds: never freed

@@ -115,6 +115,40 @@ def test_stock_clearance_and_rapids_against_a_block() -> None:
     assert over[0] and depth[0] > 2.0
 
 
+def test_motion_with_ends_decides_as_without() -> None:
+    """``StockScene.check_motion(ends=...)`` (the combined posture report standing for
+    the design's end samples) decides every segment as the check without it."""
+    design = CollisionScene({"part": trimesh.creation.box(extents=(40.0, 40.0, 2.0))})
+    stock = Stock.box(np.array([2.5, -10.0, -1.0]), np.array([12.0, 10.0, 15.0]), 0.1)
+    scene = StockScene(design, excess_voxels(stock, PlaneDistance(), 2.0, 0.5))  # type: ignore[arg-type]
+    tool = resolve_tool("ball4_taper")
+    rng = np.random.default_rng(7)
+    n = 40
+    # tips wandering over the block's side and the part, axes leaning about z
+    tip = np.column_stack([np.linspace(-6.0, 6.0, n), rng.uniform(-3.0, 3.0, n),
+                           rng.uniform(0.5, 4.0, n)])
+    lean = np.radians(rng.uniform(0.0, 30.0, n))
+    turn = rng.uniform(0.0, 2 * math.pi, n)
+    axis = np.column_stack([np.sin(lean) * np.cos(turn), np.sin(lean) * np.sin(turn),
+                            np.cos(lean)])
+    limit = 2.5
+    common = {"cutter_allowance": 0.05, "clearance_limits": (limit,)}
+    ends = scene.check_postures(tool, tip, axis, clearance_cap=3.0, **common)
+    motion = {"max_step_mm": 0.5, "max_step_deg": 2.0, "clearance_cap": limit, **common}
+    plain = scene.check_motion(tool, tip, axis, **motion)
+    reused = scene.check_motion(tool, tip, axis, ends=ends, **motion)
+
+    def bad(report: object) -> np.ndarray:
+        clear = np.asarray(report.clearance)  # type: ignore[attr-defined]
+        return np.asarray(report.collides) | (np.isfinite(clear) & (clear < limit))  # type: ignore[attr-defined]
+
+    assert np.array_equal(plain.collides, reused.collides)
+    assert np.array_equal(bad(plain), bad(reused))
+    assert bad(plain).any() and not bad(plain).all()  # both kinds of segment occur
+    below = np.asarray(plain.clearance) < limit
+    assert np.allclose(np.asarray(plain.clearance)[below], np.asarray(reused.clearance)[below])
+
+
 def _body_points(tool_name: str, tip: np.ndarray, axis: np.ndarray) -> list[np.ndarray]:
     """Surface points of the posed shank and holder (their revolved mesh vertices,
     densified along the axis), one array per posture."""
