@@ -3,9 +3,9 @@
 An edge pass's ball touches the blade's outline at its contact; above the ball the
 flutes (a cylinder of the ball's radius) must lean off the blade, else they cut
 into the edge beside the contact. The collision check of the M3 procedure cannot see
-that: it shrinks the cutter by ``cutter_allowance_mm`` (0.035 mm, formerly 0.05 mm) so
-that the ball may touch what it cuts, so flutes leaning *towards* the surface pass it
-while cutting up to that much into the part. That was the cause of the main job's five gouges of
+that: it shrinks the cutter by ``cutter_allowance_mm`` (0.05 mm) so that the ball may
+touch what it cuts, so flutes leaning *towards* the surface pass it while cutting up
+to that much into the part. That was the cause of the main job's five gouges of
 0.050-0.053 mm on nine_blade's leading edges (verification tolerance 0.05 mm): the
 edge passes leaned 5 deg towards the local contact normal, which turns by 180 deg
 round the edge, so A and C reversed; the smoothing, the eq. 7 remedy (C turned by up

