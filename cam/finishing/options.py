@@ -116,7 +116,11 @@ class FinishOptions:
         changed postures are checked again), mm; 0: off.
     cutter_allowance_mm : float
         The ball is checked shrunk by this much so that it may touch the surfaces
-        it cuts (must exceed the scene tessellation error), mm.
+        it cuts (must exceed the scene tessellation error), mm; at most the verifier's
+        gouge tolerance (``Tolerances.gouge``). At 0.05 both are equal, so a posture
+        the planner accepts can verify as a gouge just over it (the splitter's outlet
+        tip corners: 0.052 mm at 0.1 mm); 0.035 leaves fillet postures out (the ball of
+        the fillet's radius touches the tessellated fillet deeper), so the default stays.
     clearance_mm : float
         Required clearance of shank and holder from the part, mm.
     stock_clearance_mm : float
@@ -236,6 +240,12 @@ class FinishOptions:
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
                 raise InputError("must be a number >= 0", field=name, value=value,
                                  accepted="a finite number >= 0")
+        if self.cutter_allowance_mm > DEFAULT_TOLERANCES.gouge:
+            raise InputError("lets the planner accept postures the verification reports as "
+                             "gouges", field="cutter_allowance_mm",
+                             value=self.cutter_allowance_mm,
+                             accepted=f"a number >= 0 and <= the gouge tolerance "
+                                      f"{DEFAULT_TOLERANCES.gouge} mm")
         chordal = self.chordal_tolerance_mm
         if chordal is not None and not (isinstance(chordal, int | float)
                                         and not isinstance(chordal, bool)

@@ -47,6 +47,16 @@ def test_options_validate_and_name_the_field() -> None:
         FinishOptions(repair_rounds=1.5)  # type: ignore[arg-type]
 
 
+def test_cutter_allowance_is_within_the_gouge_tolerance() -> None:
+    # the planner's shrunk ball must not accept what the verifier calls a gouge
+    from impeller_cam import DEFAULT_TOLERANCES
+
+    allowance = FinishOptions().cutter_allowance_mm
+    assert DEFAULT_TOLERANCES.tessellation < allowance <= DEFAULT_TOLERANCES.gouge
+    with pytest.raises(InputError, match="cutter_allowance_mm.*gouge tolerance"):
+        FinishOptions(cutter_allowance_mm=DEFAULT_TOLERANCES.gouge + 0.01)
+
+
 def test_initial_axis_turns_about_c_away_from_the_wall() -> None:
     # ruling along +X, wall normal +Y: turning about +Z by +1.5 deg moves the top to +Y
     ruling = np.array([[1.0, 0.0, 0.0], [0.0, 0.6, 0.8]])
