@@ -15,12 +15,13 @@ of passage 0 beside the roughed others. This script reads that run:
 * **passes** (``swarf_passes``): the samples the swarf program made, measured per
   pass against the exact side and the prediction
   (``cam.finishing.swarf_verify.measure_passes``; the prediction re-made from
-  finish.json's options);
+  finish.json's options): the two ranges, and sample by sample (``pointwise``);
 * **cycle**: the motion stage's cycle times (blended and exact stop) of every finish
   NC program of the run.
 
 Run: ``python benchmarks/bench_swarf_chain.py OUT SPEC`` (OUT: the chain's output
-folder, SPEC: the spec it ran); writes ``OUT/swarf_chain.json``.
+folder, SPEC: the spec it ran); writes ``OUT/swarf_chain.json`` (``--skip``: stages
+kept from an earlier run of it).
 """
 
 from __future__ import annotations
@@ -135,14 +136,59 @@ def swarf_passes(out: Path, spec_path: Path) -> dict[str, Any]:
     swarf[made >= 0] = np.char.startswith(names[made[made >= 0]], "finish_swarf")
     vertices, faces, _ = load_design(spec_path)
     design = DesignDistance(vertices, faces)
+    collected: list[NDArray[np.float64]] = []
     found = measure_passes(walls, passes, points[swarf], spec.leading_edge,
-                           spec.trailing_edge, design=design)
+                           spec.trailing_edge, design=design, collect=collected)
     everywhere = design(points[swarf])
+    entries = []
+    for m, (w, run), samples in zip(found, passes, collected, strict=True):
+        entries.append({**m.as_dict(), **pointwise(walls[w], run, samples, spec)})
     return {"samples": int(swarf.sum()), "min_mm": float(everywhere.min()),
             "gouges": int((everywhere < -0.05).sum()),
-            "passes": [m.as_dict() for m in found],
+            "passes": entries,
             "largest_difference_mm": max((m.difference for m in found), default=None),
             "prediction": finish.get("swarf")}
+
+
+def pointwise(sw: Any, run: NDArray[np.intp], samples: NDArray[np.float64],
+              spec: Any) -> dict[str, Any]:
+    """Measured against predicted deviation at each measured sample, mm.
+
+    The prediction (``swarf_sweep.pass_deviation``, as ``measure_passes`` makes it:
+    the pass's own swept tool on its band, 61 points per ruling) interpolated at each
+    sample's side parameters ``(p, v)`` (``samples``: ``measure_passes``' collected
+    ``x, y, z, p, v, distance``).
+
+    Returns
+    -------
+    dict
+        ``pointwise_max_abs_mm`` and ``pointwise_p99_abs_mm`` of measured minus
+        predicted (None without samples).
+    """
+    from scipy.interpolate import RegularGridInterpolator
+
+    from cam.finishing.swarf_blade import side_segment
+    from cam.finishing.swarf_sweep import pass_deviation
+
+    if not len(samples):
+        return {"pointwise_max_abs_mm": None, "pointwise_p99_abs_mm": None}
+    role = "pressure" if sw.wall.side > 0 else "suction"
+    seg = side_segment(sw.wall.blade, role, spec.leading_edge, spec.trailing_edge)
+    res = sw.result
+    u = res.postures.u
+
+    def point(q: NDArray[np.float64], s: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.asarray(seg.point(q, s * np.interp(q, u, res.v_bottom)))
+
+    field = pass_deviation(point, res.flank, res.postures, run, samples=61)
+    order = np.argsort(field.u)
+    grid = RegularGridInterpolator((field.u[order], field.v), field.deviation[order],
+                                   bounds_error=False, fill_value=None)
+    p, v, measured = samples[:, 3], samples[:, 4], samples[:, 5]
+    s = v / np.interp(p, u, res.v_bottom)
+    difference = np.abs(measured - grid(np.column_stack([p, s])))
+    return {"pointwise_max_abs_mm": float(difference.max()),
+            "pointwise_p99_abs_mm": float(np.percentile(difference, 99))}
 
 
 def cycle(out: Path, machine_path: Path) -> dict[str, Any]:
@@ -174,7 +220,9 @@ def main() -> None:
     parser.add_argument("--skip", nargs="*", default=[],
                         choices=["faces", "passes", "cycle"])
     args = parser.parse_args()
-    report: dict[str, Any] = {"out": str(args.out), "spec": str(args.spec)}
+    target = args.out / "swarf_chain.json"
+    report: dict[str, Any] = json.loads(target.read_text()) if target.is_file() else {}
+    report.update(out=str(args.out), spec=str(args.spec))  # stages skipped keep theirs
     for name, stage in (("cycle", lambda: cycle(args.out, args.machine)),
                         ("faces", lambda: passage_regions(args.out, args.spec)),
                         ("passes", lambda: swarf_passes(args.out, args.spec))):
@@ -183,7 +231,7 @@ def main() -> None:
         start = time.perf_counter()
         report[name] = stage()
         report[f"{name}_wall_s"] = round(time.perf_counter() - start, 1)
-        (args.out / "swarf_chain.json").write_text(json.dumps(report, indent=1, default=str))
+        target.write_text(json.dumps(report, indent=1, default=str))
         print(json.dumps({name: report[name]}, default=str)[:4000], flush=True)
 
 
