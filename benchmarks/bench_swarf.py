@@ -7,7 +7,8 @@ Stages (each writes under ``OUT/FIXTURE/``; run them in order):
   tolerances of ``bench_finishing.py --production`` (scallop 0.01 mm, chordal 0.01 mm,
   the spec's spacing as the cap; clearance as the main job's) and no hub or edge
   passes; every APT posted for trunnion-500 (its own dialect) into ``nc/``.
-* ``verify``: the verifier's own pieces on ``nc/finish_swarf.ngc``: the tool's swept
+* ``verify``: (the prediction re-made with the options of the finish stage's
+  finish.json) the verifier's own pieces on ``nc/finish_swarf.ngc``: the tool's swept
   primitives (``toolshape``), the program's sub-moves (``program_moves``, sweep
   tolerance ``--sweep-tol``, the chain's 0.01 mm by default; ``--angular-tol``: the
   APT posted again with that angular tolerance, deg) swept through a tri-dexel
@@ -95,9 +96,12 @@ def verify_stage(fixture: str, tool_name: str, out: Path, stock_arg: str, resolu
     tool = resolve_tool(tool_name)
     spec = load_spec(spec_path(fixture))
     surfaces = build_surfaces(spec)
-    fields: dict[str, Any] = {"passages": 1}
-    if clearance is not None:
-        fields["clearance_mm"] = clearance
+    # the prediction with the options the finish stage planned with (ruling step,
+    # tolerances, clearance as flute margin)
+    fields: dict[str, Any] = json.loads((out / "finish" / "finish.json").read_text())["options"]
+    if clearance is not None and clearance != fields["clearance_mm"]:
+        raise SystemExit(f"--clearance {clearance} differs from the finish stage's "
+                         f"{fields['clearance_mm']}")
     walls = swarf_walls(surfaces, tool, FinishOptions.from_mapping(fields))
     tips = np.vstack([tp.tip for tp in read_apt(out / "finish" / "finish_swarf.apt")])
     passes = passes_of_program(walls, tips)
