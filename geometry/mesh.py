@@ -13,13 +13,15 @@ from collections.abc import Sequence
 import numpy as np
 import trimesh
 from numpy.typing import NDArray
-from OCP.BRep import BRep_Builder, BRep_Tool
+from OCP.BRep import BRep_Tool
 from OCP.BRepMesh import BRepMesh_IncrementalMesh
 from OCP.BRepTools import BRepTools
 from OCP.IMeshTools import IMeshTools_Parameters
 from OCP.TopAbs import TopAbs_REVERSED
 from OCP.TopLoc import TopLoc_Location
-from OCP.TopoDS import TopoDS_Compound, TopoDS_Face, TopoDS_Shape
+from OCP.TopoDS import TopoDS_Face, TopoDS_Shape
+
+from geometry.brep import compound
 
 __all__ = ["collapse_short_edges", "tessellate", "triangulate_faces"]
 
@@ -85,7 +87,7 @@ def tessellate(
         # only those faces meshed again (their compound): the same triangles as
         # meshing the whole shape again (checked on every fixture), a fraction of it
         sub = [faces[i] for i in messy]
-        plain = triangulate_faces(_compound(sub), sub, tolerance, angle, control_surface=False)
+        plain = triangulate_faces(compound(sub), sub, tolerance, angle, control_surface=False)
         for i, part in zip(messy, plain, strict=True):
             parts[i] = part
     vertices, triangles, labels = [], [], []
@@ -107,16 +109,6 @@ def tessellate(
         label_array = label_array[alive]
     mesh.remove_unreferenced_vertices()
     return mesh, label_array
-
-
-def _compound(faces: Sequence[TopoDS_Face]) -> TopoDS_Compound:
-    """The faces (the solid's own, shared) as one compound."""
-    compound = TopoDS_Compound()
-    builder = BRep_Builder()
-    builder.MakeCompound(compound)
-    for face in faces:
-        builder.Add(compound, face)
-    return compound
 
 
 def _shortest_edge(vertices: NDArray[np.float64], triangles: NDArray[np.int64]) -> float:
