@@ -79,7 +79,7 @@ def _arc(linker: Linker, tip: Array, along: Array, axis: Array, escape: Array
         arc, _ = blend_curve(tip, along, outer, d, axis, axis, QUARTER * radius,
                              LEAD_POINTS)
         path = np.vstack([tip[None], arc])
-        if linker._feed_free(path, np.tile(axis, (len(path), 1))):
+        if linker.feed_free(path, np.tile(axis, (len(path), 1))):
             return outer, arc
     return None
 

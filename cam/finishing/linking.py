@@ -202,7 +202,7 @@ class Linker:
             cutter_allowance=-r.clearance, clearance_cap=r.clearance)
         return not bool(report.blocked(r.clearance).any())
 
-    def _feed_free(self, tip: Array, axis: Array, allowance: float | None = None) -> bool:
+    def feed_free(self, tip: Array, axis: Array, allowance: float | None = None) -> bool:
         """A feed move (W-linear, fixed axis) checked as a cut, cutter shrunk by allowance."""
         r = self.rules
         report = self.scene.check_motion(
@@ -243,7 +243,7 @@ class Linker:
         clear = ~report.blocked(r.clearance)
         for index in np.flatnonzero(clear):
             point = flat[index]
-            if self._feed_free(np.stack([tip, point]), np.stack([axis, axis])):
+            if self.feed_free(np.stack([tip, point]), np.stack([axis, axis])):
                 return point, float(lengths[index // len(directions)])
         return self._cutter_escape(tip, axis, flat, lengths, len(directions))
 

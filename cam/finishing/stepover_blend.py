@@ -190,7 +190,7 @@ def feed_stepover(linker: Linker, a: PassEnds, b: PassEnds) -> Stepover | None:
     for tip, axis, reach in candidates:
         tips = np.vstack([start[None], tip])
         axes = np.vstack([a.axis[-1][None], axis])
-        if _turn_ok(linker, a, tips, axes) and linker._feed_free(tips, axes, allowance):
+        if _turn_ok(linker, a, tips, axes) and linker.feed_free(tips, axes, allowance):
             return Stepover(tip=np.asarray(tip, dtype=np.float64),
                             axis=np.asarray(axis, dtype=np.float64), reach=reach)
     return None
