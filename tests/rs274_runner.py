@@ -13,9 +13,11 @@ Reusable by any test that writes RS274/NGC: ``run_rs274(path)`` raises
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import subprocess
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -126,11 +128,16 @@ def run_rs274(
     if exe is None:
         raise FileNotFoundError("LinuxCNC's rs274 interpreter is not installed")
     ini = Path(ini).resolve()
-    result = subprocess.run(
-        [exe, "-i", str(ini), "-t", str(Path(tool_table).resolve()), "-n", "2", "-g",
-         str(Path(program).resolve())],
-        cwd=ini.parent, capture_output=True, text=True, timeout=timeout, check=False,
-    )
+    # rs274 keeps its tool table in $HOME/.tool.mmap (opened with O_TRUNC, then
+    # mmapped): two runs sharing a HOME (the pytest workers) truncate each other's
+    # map and one dies of SIGBUS (exit -7). Each run gets a HOME of its own.
+    with tempfile.TemporaryDirectory(prefix="rs274-home-") as home:
+        result = subprocess.run(
+            [exe, "-i", str(ini), "-t", str(Path(tool_table).resolve()), "-n", "2", "-g",
+             str(Path(program).resolve())],
+            cwd=ini.parent, capture_output=True, text=True, timeout=timeout, check=False,
+            env={**os.environ, "HOME": home},
+        )
     errors = result.stderr.replace("executing", "").strip()
     if result.returncode != 0 or errors:
         raise Rs274Error(f"rs274 exit {result.returncode}: {errors}")
