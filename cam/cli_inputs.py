@@ -31,7 +31,8 @@ def design_command(
     import tomllib
 
     from cam.inputs import check_options
-    from geometry.design import generate, load_design, write_generated
+    from geometry.design import generate, load_design
+    from geometry.design_files import write_generated
     from geometry.design_summary import design_figures, summary_text
     from geometry.machining import read_machining
 

@@ -31,7 +31,8 @@ from impeller_cam.lazy import lazy_exports
 if TYPE_CHECKING:
     from geometry.assembly import ROLES
     from geometry.blank import spec_blank_profile
-    from geometry.design import DesignParameters, generate, load_design, write_design
+    from geometry.design import DesignParameters, generate, load_design
+    from geometry.design_files import write_design
     from geometry.export import read_step, write_step, write_stl
     from geometry.figures import GeometryFigures, compute_figures
     from geometry.impeller import Impeller
@@ -52,7 +53,7 @@ _EXPORTS = {
     "DesignParameters": "geometry.design",
     "generate": "geometry.design",
     "load_design": "geometry.design",
-    "write_design": "geometry.design",
+    "write_design": "geometry.design_files",
     "read_step": "geometry.export",
     "write_step": "geometry.export",
     "write_stl": "geometry.export",

@@ -12,17 +12,16 @@ A designer describes an impeller by
 * optionally ``midspan_wrap_offset``: a mid-span camber line whose wrap differs from
   the ruled blade's by this angle, which makes the blade non-ruled.
 
-``generate`` turns the parameters into arrays (``GeneratedDesign``) and
-``write_design`` writes the spec TOML and camber CSVs a user would write by hand
-(format: docs/formats.md), atomically and with deterministic number
-formatting. ``load_design`` reads the TOML form of the parameters (``design.toml``).
+``generate`` turns the parameters into arrays (``GeneratedDesign``);
+``geometry.design_files.write_design`` writes the spec TOML and camber CSVs a user
+would write by hand (format: docs/formats.md). ``load_design`` reads the TOML form of
+the parameters (``design.toml``).
 Angles are radians here and degrees in the files.
 """
 
 from __future__ import annotations
 
 import math
-import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,12 +34,18 @@ from scipy.integrate import cumulative_trapezoid
 from scipy.interpolate import PchipInterpolator
 
 from geometry.camber import cylindrical_to_cartesian
+from geometry.design_checks import (
+    ANGLE_LAWS,
+    CHOICES,
+    SCALARS,
+    Floats,
+    Points,
+    check_parameters,
+)
 from geometry.design_schema import DesignFile
 from geometry.machining import read_machining
-from geometry.spec import EDGE_SHAPES, ImpellerSpec
-from geometry.spec_schema import MIN_SPLINE_POINTS
+from geometry.spec import ImpellerSpec
 from geometry.validate import check_spec_geometry
-from impeller_cam.atomic import staged_directory, write_text_atomic
 from impeller_cam.errors import InputError
 from impeller_cam.schema import load_toml, validate
 
@@ -52,22 +57,15 @@ __all__ = [
     "generate",
     "integrate_blade_angle",
     "load_design",
-    "write_design",
-    "write_generated",
 ]
 
-ANGLE_LAWS = ("wrap", "blade_angle")
 #: Samples along each Bezier contour for arc length and the blade-angle integral.
 DENSE_SAMPLES = 4001
 #: Decimals written for every length (mm) and angle (deg) in the spec and CSVs.
 DECIMALS = 6
-#: Largest |blade angle| accepted, deg (tan(beta) grows without bound at 90 deg).
-MAX_BLADE_ANGLE_DEG = 85.0
-_NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
-_FILES = {"shroud": "shroud_camber.csv", "hub": "hub_camber.csv", "midspan": "mid_camber.csv"}
+#: File names of the written camber lines (``geometry.design_files``).
+FILES = {"shroud": "shroud_camber.csv", "hub": "hub_camber.csv", "midspan": "mid_camber.csv"}
 
-Points = tuple[tuple[float, float], ...]
-Floats = tuple[float, ...]
 
 
 @dataclass(frozen=True)
@@ -135,7 +133,7 @@ class DesignParameters:
     machining_toml: str = ""
 
     def __post_init__(self) -> None:
-        _validate(self)
+        check_parameters(self)
 
 
 @dataclass(frozen=True)
@@ -187,117 +185,6 @@ class GeneratedDesign:
             machining=read_machining(tomllib.loads(p.machining_toml)),
             **{key: getattr(p, key) for key in same},
         )
-
-
-# ---------------------------------------------------------------------------------
-# validation (field names are those of design.toml; values shown in file units)
-# ---------------------------------------------------------------------------------
-#: Scalar parameters: attribute -> (design.toml field, kind, lowest, highest).
-#: ``kind`` is "int", "float" (mm or fraction) or "deg" (radians here, degrees in the file).
-_SCALARS: dict[str, tuple[str, str, float, float]] = {
-    "blades": ("impeller.blades", "int", 1, 64),
-    "contour_points": ("meridional.points", "int", MIN_SPLINE_POINTS, 2000),
-    "camber_points": ("camber.points", "int", MIN_SPLINE_POINTS, 2000),
-    "shroud_theta_le": ("camber.shroud.theta_le_deg", "deg", -1000.0, 1000.0),
-    "hub_theta_le": ("camber.hub.theta_le_deg", "deg", -1000.0, 1000.0),
-    "midspan_wrap_offset": ("camber.midspan_wrap_offset_deg", "deg", -45.0, 45.0),
-    "bore_radius": ("hub.bore_radius_mm", "float", 0.0, math.inf),
-    "fillet_radius": ("blade.fillet_radius_mm", "float", 0.0, math.inf),
-    "splitters": ("splitters.count", "int", 0, 1),
-    "splitter_start": ("splitters.start_fraction", "float", 0.05, 0.9),
-    "stock_allowance": ("allowances.stock_mm", "float", 0.0, math.inf),
-    "finishing_allowance": ("allowances.finishing_mm", "float", 0.0, math.inf),
-}
-_CHOICES = {
-    "angle_law": ("camber.law", ANGLE_LAWS),
-    "leading_edge": ("blade.leading_edge", EDGE_SHAPES),
-    "trailing_edge": ("blade.trailing_edge", EDGE_SHAPES),
-}
-
-
-def _fail(message: str, name: str, value: Any, accepted: str) -> None:
-    raise InputError(message, field=name, value=value, accepted=accepted)
-
-
-def _is_number(x: Any) -> bool:
-    return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
-
-
-def _check_scalar(attr: str, value: Any) -> None:
-    key, kind, lo, hi = _SCALARS[attr]
-    shown = math.degrees(value) if kind == "deg" and _is_number(value) else value
-    accepted = f"{'an integer' if kind == 'int' else 'a number'} {lo:g}..{hi:g}"
-    if not _is_number(value) or (kind == "int" and not isinstance(value, int)):
-        _fail("must be a finite number", key, shown, accepted)
-    if not lo <= shown <= hi:
-        _fail("out of range", key, shown, accepted)
-
-
-def _check_knots(line: str, knots: Floats, values: Floats, values_key: str) -> None:
-    accepted = "knots m increasing from 0 to 1, one finite value per knot, at least 2"
-    m = np.asarray(knots, dtype=np.float64)
-    if m.ndim != 1 or len(m) < 2 or m[0] != 0.0 or m[-1] != 1.0 or np.any(np.diff(m) <= 0):
-        _fail("knots must increase from 0 to 1", f"{line}.m", list(knots), accepted)
-    if len(values) != len(m) or not all(map(_is_number, values)):
-        deg = values_key.endswith("_deg")
-        shown = [round(math.degrees(x), 9) if deg and _is_number(x) else x for x in values]
-        _fail("one finite value per knot needed", f"{line}.{values_key}", shown, accepted)
-
-
-def _check_polygon(key: str, control: Points) -> None:
-    try:
-        arr = np.asarray(control, dtype=np.float64)
-    except (TypeError, ValueError):
-        arr = np.empty((0, 0))
-    if arr.ndim != 2 or arr.shape[1] != 2 or len(arr) < 2 or not np.all(np.isfinite(arr)):
-        _fail("bad control polygon", key, list(control), "at least 2 finite [z, r] points")
-    if np.any(arr[:, 1] <= 0):
-        _fail("control radius must be positive", key, list(control), "r > 0 mm")
-    if np.any(np.linalg.norm(np.diff(arr, axis=0), axis=1) < 1e-9):
-        _fail("repeated control point", key, list(control), "distinct consecutive points")
-
-
-def _validate(p: DesignParameters) -> None:
-    """Raise ``InputError`` naming the design.toml field of the first bad parameter."""
-    if not isinstance(p.name, str) or not _NAME.match(p.name):
-        _fail("bad name", "impeller.name", p.name, "letters, digits, '_', '.', '-'")
-    for attr in _SCALARS:
-        _check_scalar(attr, getattr(p, attr))
-    for attr, (key, options) in _CHOICES.items():
-        if getattr(p, attr) not in options:
-            _fail("unknown value", key, getattr(p, attr), " or ".join(map(repr, options)))
-    values_key = "theta_deg" if p.angle_law == "wrap" else "beta_deg"
-    for line in ("hub", "shroud"):
-        _check_polygon(f"meridional.{line}", getattr(p, f"{line}_control"))
-        span = getattr(p, f"{line}_blade")
-        if len(span) != 2 or not (0.0 <= span[0] < span[1] <= 1.0):
-            _fail(
-                "bad blade span",
-                f"meridional.{line}_blade",
-                list(span),
-                "[le, te] with 0 <= le < te <= 1",
-            )
-        values = getattr(p, f"{line}_angle")
-        _check_knots(f"camber.{line}", getattr(p, f"{line}_knots"), values, values_key)
-        steep = math.radians(MAX_BLADE_ANGLE_DEG)
-        if p.angle_law == "blade_angle" and max(map(abs, values)) > steep:
-            _fail(
-                "blade angle too steep",
-                f"camber.{line}.beta_deg",
-                [round(math.degrees(b), 6) for b in values],
-                f"|beta| <= {MAX_BLADE_ANGLE_DEG:g} deg",
-            )
-    hub_r_min = float(np.min(np.asarray(p.hub_control)[:, 1]))
-    if not 0.0 < p.bore_radius < hub_r_min:
-        _fail(
-            "bore is not inside the hub",
-            "hub.bore_radius_mm",
-            p.bore_radius,
-            f"0 < bore < smallest hub control radius {hub_r_min:g} mm",
-        )
-    _check_knots("blade.thickness", p.thickness_u, p.thickness_mm, "mm")
-    if min(p.thickness_mm) <= 0:
-        _fail("thickness must be positive", "blade.thickness.mm", list(p.thickness_mm), "mm > 0")
 
 
 # ---------------------------------------------------------------------------------
@@ -437,106 +324,6 @@ def generate(params: DesignParameters) -> GeneratedDesign:
 
 
 # ---------------------------------------------------------------------------------
-# writing
-# ---------------------------------------------------------------------------------
-def _num(x: float) -> str:
-    """Deterministic fixed-point text of ``x`` with ``DECIMALS`` decimals, no ``-0``."""
-    text = f"{round(float(x), DECIMALS) + 0.0:.{DECIMALS}f}"
-    return "0." + "0" * DECIMALS if text == "-0." + "0" * DECIMALS else text
-
-
-def _short_num(x: float) -> str:
-    """Shortest round-trip text of a parameter value (``repr`` of the float)."""
-    return repr(round(float(x), DECIMALS) + 0.0)
-
-
-def camber_csv_text(camber: NDArray[np.float64]) -> str:
-    """CSV text ``r,theta_deg,z`` of ``(n, 3)`` r (mm), theta (rad), z (mm) points."""
-    rows = ["r,theta_deg,z"]
-    rows += [f"{_num(r)},{_num(math.degrees(t))},{_num(z)}" for r, t, z in camber]
-    return "\n".join(rows) + "\n"
-
-
-def _pairs(points: NDArray[np.float64]) -> str:
-    return "[\n" + "".join(f"    [{_num(a)}, {_num(b)}],\n" for a, b in points) + "]"
-
-
-def spec_toml_text(design: GeneratedDesign) -> str:
-    """The spec TOML text of ``design`` (camber CSV names as written by ``write_generated``)."""
-    p = design.params
-    u, mm = (", ".join(map(_short_num, values)) for values in (p.thickness_u, p.thickness_mm))
-    thickness = f"thickness = {{ u = [{u}], mm = [{mm}] }}"
-    if len(set(p.thickness_mm)) == 1:
-        thickness = f"thickness_mm = {_short_num(p.thickness_mm[0])}"
-    mid = "" if design.midspan_camber is None else f'midspan = "{_FILES["midspan"]}"\n'
-    return (
-        "# Generated by geometry.design from design.toml: edit that file, then run\n"
-        "# fixtures/impellers/regenerate.py (or geometry.design.write_design).\n"
-        f'[impeller]\nname = "{p.name}"\nblades = {p.blades}\n\n'
-        f'[camber]\nshroud = "{_FILES["shroud"]}"\nhub = "{_FILES["hub"]}"\n{mid}\n'
-        f"[meridional]\nhub = {_pairs(design.hub_contour)}\n"
-        f"shroud = {_pairs(design.shroud_contour)}\n\n"
-        f"[hub]\nbore_radius_mm = {_short_num(p.bore_radius)}\n\n"
-        f'[blade]\n{thickness}\nleading_edge = "{p.leading_edge}"\n'
-        f'trailing_edge = "{p.trailing_edge}"\nfillet_radius_mm = {_short_num(p.fillet_radius)}\n\n'
-        f"[splitters]\ncount = {p.splitters}\nstart_fraction = {_short_num(p.splitter_start)}\n\n"
-        f"[allowances]\nstock_mm = {_short_num(p.stock_allowance)}\n"
-        f"finishing_mm = {_short_num(p.finishing_allowance)}\n"
-        + ("\n" + p.machining_toml if p.machining_toml else "")
-    )
-
-
-def write_generated(
-    design: GeneratedDesign, folder: str | Path, extra: dict[str, str] | None = None
-) -> Path:
-    """Write ``spec.toml`` and the camber CSVs of ``design`` into ``folder`` atomically.
-
-    All files (and the ``extra`` ones: name -> text) are staged and published together
-    (``impeller_cam.atomic``). A stale ``mid_camber.csv`` from an earlier non-ruled
-    variant is removed.
-
-    Returns
-    -------
-    Path
-        The written ``spec.toml``.
-    """
-    folder = Path(folder)
-    texts = {
-        _FILES["shroud"]: camber_csv_text(design.shroud_camber),
-        _FILES["hub"]: camber_csv_text(design.hub_camber),
-        "spec.toml": spec_toml_text(design),
-        **(extra or {}),
-    }
-    if design.midspan_camber is not None:
-        texts[_FILES["midspan"]] = camber_csv_text(design.midspan_camber)
-    with staged_directory(folder) as stage:
-        for name, text in texts.items():
-            write_text_atomic(stage / name, text)
-    stale = folder / _FILES["midspan"]
-    if design.midspan_camber is None and stale.exists():
-        stale.unlink()
-    return folder / "spec.toml"
-
-
-def write_design(params: DesignParameters, folder: str | Path) -> Path:
-    """Generate ``params`` and write the spec TOML + camber CSVs into ``folder``.
-
-    Parameters
-    ----------
-    params : DesignParameters
-        The design (mm, rad).
-    folder : str or Path
-        Output folder (written atomically).
-
-    Returns
-    -------
-    Path
-        The written ``spec.toml``.
-    """
-    return write_generated(generate(params), folder)
-
-
-# ---------------------------------------------------------------------------------
 # design.toml
 # ---------------------------------------------------------------------------------
 def _lookup(data: dict[str, Any], dotted: str) -> Any:
@@ -574,11 +361,11 @@ def _design_kwargs(data: dict[str, Any], path: Path) -> dict[str, Any]:
     else:
         kwargs["thickness_u"] = tuple(map(float, blade["thickness"]["u"]))
         kwargs["thickness_mm"] = tuple(map(float, blade["thickness"]["mm"]))
-    for attr, (dotted, kind, _, _) in _SCALARS.items():
+    for attr, (dotted, kind, _, _) in SCALARS.items():
         value = _lookup(data, dotted)
         if value is not ...:
             kwargs[attr] = math.radians(value) if kind == "deg" else value
-    for attr, (dotted, _) in {"name": ("impeller.name", ()), **_CHOICES}.items():
+    for attr, (dotted, _) in {"name": ("impeller.name", ()), **CHOICES}.items():
         value = _lookup(data, dotted)
         if value is not ...:
             kwargs[attr] = value

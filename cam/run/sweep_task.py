@@ -59,7 +59,8 @@ def _generate(design: Path, spec_folder: Path) -> Path:
     import tomllib
 
     from cam.inputs import check_options
-    from geometry.design import generate, load_design, write_generated
+    from geometry.design import generate, load_design
+    from geometry.design_files import write_generated
     from geometry.design_summary import design_figures
     from geometry.machining import read_machining
 

@@ -11,7 +11,8 @@ import math
 import sys
 from pathlib import Path
 
-from geometry.design import load_design, write_design
+from geometry.design import load_design
+from geometry.design_files import write_design
 from geometry.impeller import Impeller
 
 HERE = Path(__file__).resolve().parents[2]

@@ -29,7 +29,8 @@ from scipy.interpolate import CubicSpline, PchipInterpolator
 from scipy.optimize import minimize_scalar
 
 from geometry.camber import camber_curves, chord_parameter, common_nodes, cylindrical_to_cartesian
-from geometry.design import camber_csv_text
+from geometry.design import FILES
+from geometry.design_files import camber_csv_text
 from geometry.exchange.model import AeroBlade, AeroBlading
 from geometry.figures import project_on_camber
 from geometry.revolved import RevolvedSurface
@@ -44,7 +45,6 @@ Array = NDArray[np.float64]
 RULED_TOLERANCE = 1e-3
 #: A thickness law varying less than this (mm) is written as one thickness.
 CONSTANT_TOLERANCE = 1e-4
-FILES = {"shroud": "shroud_camber.csv", "hub": "hub_camber.csv", "midspan": "mid_camber.csv"}
 
 
 @dataclass

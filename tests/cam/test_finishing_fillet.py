@@ -28,7 +28,8 @@ from cam.finishing.fillet_plan import check_fillet_tool, choose_fillet_tool
 from cam.finishing.paths import passage_walls
 from cam.finishing.posture import rotate_about_z
 from cam.tools import resolve_tool
-from geometry.design import load_design, write_design
+from geometry.design import load_design
+from geometry.design_files import write_design
 from geometry.spec import load_spec
 from geometry.surfaces import build_surfaces
 from impeller_cam.errors import InputError

@@ -69,7 +69,8 @@ def test_round_trailing_edges_are_inside_the_blank_with_the_allowance() -> None:
      "thickness_u": (0.0, 0.5, 1.0), "thickness_mm": (1.0, 2.0, 1.6)},
 ], ids=["thick_cut", "round_splitters"])
 def test_generated_designs_are_inside_their_blank(changes: dict, tmp_path: Path) -> None:
-    from geometry.design import load_design, write_design
+    from geometry.design import load_design
+    from geometry.design_files import write_design
 
     params = dataclasses.replace(load_design(FIXTURES / "small" / "design.toml"), **changes)
     _check(write_design(params, tmp_path / "variant"))

@@ -17,12 +17,11 @@ from geometry.camber import cylindrical_to_cartesian
 from geometry.design import (
     DesignParameters,
     bezier,
-    camber_csv_text,
     generate,
     integrate_blade_angle,
     load_design,
-    write_design,
 )
+from geometry.design_files import camber_csv_text, write_design
 from geometry.spec import load_spec
 from impeller_cam.errors import InputError
 

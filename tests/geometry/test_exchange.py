@@ -219,7 +219,8 @@ def test_export_refuses_unknown_unit_and_format(tmp_path: Path,
 def _variant(tmp_path: Path, **changes: object) -> Path:
     import dataclasses
 
-    from geometry.design import load_design, write_design
+    from geometry.design import load_design
+    from geometry.design_files import write_design
 
     params = load_design(ROOT / "fixtures" / "impellers" / "round_te" / "design.toml")
     return write_design(dataclasses.replace(params, **changes), tmp_path / "variant")
