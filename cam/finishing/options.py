@@ -115,13 +115,13 @@ class FinishOptions:
         repair (cam/finishing/axis_smoothing.py: the axis turns at a continuous rate;
         changed postures are checked again), mm; 0: off.
     cutter_allowance_mm : float
-        The ball is checked shrunk by this much so that it may touch the surfaces
-        it cuts (must exceed the scene tessellation error), mm; at most the verifier's
-        gouge tolerance (``Tolerances.gouge``). At 0.05 both are equal, so a posture
-        the planner accepts can verify as a gouge just over it (the splitter's outlet
-        tip corners: 0.052 mm at 0.1 mm); 0.035 leaves fillet postures out (the ball of
-        the fillet's radius touches the tessellated fillet deeper), so the default stays
-        and applies only to the faces a pass drives (``undriven_allowance_mm``).
+        The cutter is checked shrunk by this much against the faces a pass drives so
+        that the ball may touch the surfaces it cuts (must exceed the scene tessellation
+        error), mm; at most the verifier's gouge tolerance (``Tolerances.gouge``).
+        0.035 leaves fillet postures out (the ball of the fillet's radius touches the
+        tessellated fillet deeper). Against the other faces ``undriven_allowance_mm``:
+        there the allowance only let the flutes cut (the splitter's outlet tip corners,
+        0.052 mm gouges at 0.1 mm).
     undriven_allowance_mm : float
         The cutter is checked shrunk by this much (at most ``cutter_allowance_mm``)
         against the faces a pass does not drive: a blade pass's tip face and edges, the

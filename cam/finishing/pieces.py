@@ -32,7 +32,6 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from cam.finishing.driven import driven_scene
 from cam.finishing.interference import StepHint
 from cam.finishing.kept_run import kept_run
 from cam.finishing.options import FinishOptions
@@ -266,8 +265,6 @@ def finish_runs(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collision
     lost : (k,) intp
         Points of ``path`` left out.
     """
-    # the cutter allowance on the pass's driven faces only, in every check below
-    scene = driven_scene(scene, path, options)
     result, kept, whole, plan = _trimmed(path, tool, kins, scene, options, surfaces, hint)
     bad = offenders(result)
     pieces = [(kept, result)]

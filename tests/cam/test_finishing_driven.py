@@ -156,3 +156,36 @@ def test_driven_scene_wraps_once_and_only_when_it_matters() -> None:
 def test_undriven_allowance_must_be_a_number_at_least_zero() -> None:
     with pytest.raises(InputError, match="undriven_allowance_mm"):
         FinishOptions(undriven_allowance_mm=-0.01)
+
+
+#: The last posture of a pressure-side blade pass of the splitter chain (298206b,
+#: finish_blade.apt line 10725): tip (mm) and axis. The verifier found 0.052 mm gouges
+#: at such postures' trailing-edge tip corners.
+SPLITTER_TIP = (-76.891791, -28.865307, 11.229108)
+SPLITTER_AXIS = (0.031721, 0.006963, 0.999472)
+
+
+@pytest.mark.slow
+def test_the_splitter_outlet_posture_is_refused() -> None:
+    from cam.finishing.scene import solid_meshes
+    from cam.verify.deviation import DesignDistance
+    from geometry.impeller import Impeller
+    from tests.cam.conftest import ROOT
+
+    impeller = Impeller.from_spec(ROOT / "fixtures" / "impellers" / "splitter" / "spec.toml")
+    tip = np.array([SPLITTER_TIP])
+    axis = np.array([SPLITTER_AXIS]) / np.linalg.norm(SPLITTER_AXIS)
+    # independently: the flutes reach 0.048 mm into the trailing edge (the design mesh)
+    mesh = impeller.mesh()
+    design = DesignDistance(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+    heights = np.arange(0.0, TOOL.flute_length - R, 0.05)
+    depth, face = design.closest(tip + (R + heights)[:, None] * axis)
+    deepest = int(np.argmin(depth))
+    assert R - depth[deepest] == pytest.approx(0.048, abs=0.002)
+    assert impeller.triangle_roles()[face[deepest]] == "trailing_edge"
+    world = CollisionScene(solid_meshes(impeller, OPTIONS.tessellation_mm))
+    assert not world.check_postures(TOOL, tip, axis, cutter_allowance=0.05,
+                                    clearance=False).collides.any()
+    report = driven_scene(world, blade_pass(+1), OPTIONS).check_postures(
+        TOOL, tip, axis, cutter_allowance=OPTIONS.cutter_allowance_mm, clearance=False)
+    assert report.collides.all() and report.hit_role == ["trailing_edge"]
