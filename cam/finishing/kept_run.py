@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from cam.finishing.driven import driven_scene
 from cam.finishing.interference import check_path
 from cam.finishing.monotone_joints import reversal_counts
 from cam.finishing.options import FinishOptions
@@ -77,7 +78,8 @@ def kept_run(result: PathResult, run: NDArray[np.intp], tool: Tool, scene: Colli
     tip, axis = result.tip[run], result.axis[run]
     joints0, joints = result.joints_before[run], result.joints_after[run]
     old = result.interference
-    inter = check_path(scene, tool, tip, axis, options)
+    # the cutter allowance on the pass's driven faces only (as plan.finish_path)
+    inter = check_path(driven_scene(scene, path, options), tool, tip, axis, options)
     inter.delta_c, inter.steps, inter.c_max = old.delta_c, old.steps, old.c_max
     rules = PostureRules(path.centre, path.normal, path.tangent, path.away,
                          path.operation in ("junction", "hub"))

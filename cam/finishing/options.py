@@ -115,12 +115,18 @@ class FinishOptions:
         repair (cam/finishing/axis_smoothing.py: the axis turns at a continuous rate;
         changed postures are checked again), mm; 0: off.
     cutter_allowance_mm : float
-        The ball is checked shrunk by this much so that it may touch the surfaces
-        it cuts (must exceed the scene tessellation error), mm; at most the verifier's
-        gouge tolerance (``Tolerances.gouge``). At 0.05 both are equal, so a posture
-        the planner accepts can verify as a gouge just over it (the splitter's outlet
-        tip corners: 0.052 mm at 0.1 mm); 0.035 leaves fillet postures out (the ball of
-        the fillet's radius touches the tessellated fillet deeper), so the default stays.
+        The cutter is checked shrunk by this much against the faces a pass drives so
+        that the ball may touch the surfaces it cuts (must exceed the scene tessellation
+        error), mm; at most the verifier's gouge tolerance (``Tolerances.gouge``).
+        0.035 leaves fillet postures out (the ball of the fillet's radius touches the
+        tessellated fillet deeper). Against the other faces ``undriven_allowance_mm``:
+        there the allowance only let the flutes cut (the splitter's outlet tip corners,
+        0.052 mm gouges at 0.1 mm).
+    undriven_allowance_mm : float
+        The cutter is checked shrunk by this much (at most ``cutter_allowance_mm``)
+        against the faces a pass does not drive: a blade pass's tip face and edges, the
+        other walls (cam/finishing/driven.py; the splitter's outlet gouges), mm. At
+        least the scene's tessellation error (the chordal deflection).
     clearance_mm : float
         Required clearance of shank and holder from the part, mm.
     stock_clearance_mm : float
@@ -199,6 +205,7 @@ class FinishOptions:
     max_axis_turn_deg_per_mm: float = 5.0
     axis_rate_smoothing_mm: float = 3.0
     cutter_allowance_mm: float = 0.05
+    undriven_allowance_mm: float = 0.02
     clearance_mm: float = DEFAULT_TOLERANCES.clearance
     stock_clearance_mm: float = DEFAULT_TOLERANCES.clearance
     stock_voxel_mm: float = 0.5
@@ -233,7 +240,8 @@ class FinishOptions:
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise InputError("must be a positive number", field=name, value=value,
                                  accepted="a finite number > 0")
-        for name in ("c_tilt_deg", "cutter_allowance_mm", "clearance_mm", "repair_margin_mm",
+        for name in ("c_tilt_deg", "cutter_allowance_mm", "undriven_allowance_mm",
+                     "clearance_mm", "repair_margin_mm",
                      "feed_link_mm", "stock_clearance_mm", "swarf_overcut_mm",
                      "swarf_undercut_mm", "axis_rate_smoothing_mm"):
             value = getattr(self, name)

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam.finishing.axis_smoothing import AxisSmoothing, smooth_axis_rate
+from cam.finishing.driven import driven_scene
 from cam.finishing.interference import InterferenceResult, StepHint, resolve_interference
 from cam.finishing.monotone_joints import (
     LINEAR,
@@ -227,6 +228,8 @@ def finish_path(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collision
     ``step_hint`` in another passage) only saves checks: the result is the same
     without it (``interference.resolve_interference``).
     """
+    # the cutter allowance on the pass's driven faces only (cam/finishing/driven.py)
+    scene = driven_scene(scene, path, options)
     result = _finish_once(path, tool, kins, scene, options, surfaces, hint)
     length = len(path)
     for _ in range(_TRIM_ROUNDS if path.open_end else 0):
