@@ -65,7 +65,7 @@ from impeller_cam.errors import InputError
 from impeller_cam.progress import progress_bar
 from postproc.apt import write_apt
 from postproc.kinematics import Kinematics
-from postproc.toolpath import Cutter, Toolpath
+from postproc.toolpath import Cutter, MoveKind, Toolpath
 
 if TYPE_CHECKING:
     from cam.verify.deviation import DesignDistance
@@ -80,6 +80,10 @@ SURFACE_MESH_SPACING = 1.0
 #: Ray spacing of the spec's blank when it stands for the part in the machine check, mm
 #: (coarser casts give a larger solid of revolution: on the safe side).
 BLANK_PITCH = 1.0
+#: Largest change of the unit tool axis over a rapid the post writes as one straight
+#: ``G0`` (a rapid turning a rotary joint by more than ``postproc.feeds.ROTARY_STILL``,
+#: 1e-12 rad, gets the post's safe retract).
+AXIS_STILL = 1e-9
 #: Paper figures quoted next to ours in finish.json.
 PAPER = {"junction_cc_points": 475, "paths": 26, "reversals_after": 0}
 
@@ -136,21 +140,32 @@ def _tool_entry(tool: Tool) -> dict[str, Any]:
 def _check_links(scene: CollisionScene, tool: Tool, toolpath: Toolpath,
                  air: np.ndarray, options: FinishOptions) -> int:
     """Collision-check every air move that is not a checked link (those are checked in
-    joint space by ``Linker``), linearly in W as the planner means them; the count."""
+    joint space by ``Linker``), linearly in W as the planner means them; the count.
+
+    Feed moves (departures, approaches, stepovers) are checked as cuts: the cutter,
+    shrunk by the cutting allowance, may cut the stock. A rapid that keeps the tool
+    axis (the post writes it as one straight ``G0``; one that turns it is guarded by
+    the post's safe retract) is checked as a rapid: the whole tool, the cutter over its
+    fluted length grown by ``clearance_mm``, against the design and the stock.
+    """
     moving = (air & ~toolpath.link)[1:]
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], moving.astype(np.int8), [0]])))
+    still = np.linalg.norm(np.diff(toolpath.axis, axis=0), axis=1) < AXIS_STILL
+    rapid = moving & (toolpath.kind[1:] == MoveKind.RAPID) & still
     bad = 0
-    for start, stop in zip(edges[::2], edges[1::2], strict=True):
-        tip, axis = toolpath.tip[start:stop + 1], toolpath.axis[start:stop + 1]
-        report = scene.check_motion(tool, tip, axis, max_step_mm=options.motion_step_mm,
-                                    max_step_deg=options.motion_step_deg,
-                                    cutter_allowance=options.cutter_allowance_mm,
-                                    # only compared with the limit: exact below it
-                                    clearance_cap=options.clearance_mm,
-                                    clearance_limits=(options.clearance_mm,))
-        clear = np.asarray(report.clearance)
-        bad += int((report.collides | (np.isfinite(clear)
-                                       & (clear < options.clearance_mm))).sum())
+    for mask, allowance in ((moving & ~rapid, options.cutter_allowance_mm),
+                            (rapid, -options.clearance_mm)):
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
+        for start, stop in zip(edges[::2], edges[1::2], strict=True):
+            tip, axis = toolpath.tip[start:stop + 1], toolpath.axis[start:stop + 1]
+            report = scene.check_motion(tool, tip, axis, max_step_mm=options.motion_step_mm,
+                                        max_step_deg=options.motion_step_deg,
+                                        cutter_allowance=allowance,
+                                        # only compared with the limit: exact below it
+                                        clearance_cap=options.clearance_mm,
+                                        clearance_limits=(options.clearance_mm,))
+            clear = np.asarray(report.clearance)
+            bad += int((report.collides | (np.isfinite(clear)
+                                           & (clear < options.clearance_mm))).sum())
     return bad
 
 
