@@ -5,8 +5,9 @@ Stages (each writes under ``OUT/FIXTURE/``; run them in order):
 * ``finish``: ``run_finish`` on passage 0 (solid scene) with ``--strategy``
   (``swarf_or_point``, ``swarf`` or ``point``), the tool ``-t``, the production
   tolerances of ``bench_finishing.py --production`` (scallop 0.01 mm, chordal 0.01 mm,
-  the spec's spacing as the cap; clearance as the main job's) and no hub or edge
-  passes; every APT posted for trunnion-500 (its own dialect) into ``nc/``.
+  the spec's spacing as the cap; clearance as the main job's), no hub passes and no
+  edge passes unless ``--edge-passes``; every APT posted for trunnion-500 (its own
+  dialect) into ``nc/``.
 * ``verify``: (the prediction re-made with the options of the finish stage's
   finish.json) the verifier's own pieces on ``nc/finish_swarf.ngc``: the tool's swept
   primitives (``toolshape``), the program's sub-moves (``program_moves``, sweep
@@ -43,7 +44,8 @@ def spec_path(fixture: str) -> Path:
 
 
 def finish_stage(fixture: str, tool: str, strategy: str, out: Path,
-                 clearance: float | None, ruling_step: float | None = None) -> None:
+                 clearance: float | None, ruling_step: float | None = None,
+                 edges: bool = False) -> None:
     import tomllib
 
     from cam.finishing.command import run_finish
@@ -55,7 +57,7 @@ def finish_stage(fixture: str, tool: str, strategy: str, out: Path,
     if clearance is not None:
         options["clearance_mm"] = clearance
         options["clearance_exact_mm"] = max(3.0, clearance)
-    options.update(passages=1, hub_passes=False, edge_passes=False, blade_strategy=strategy)
+    options.update(passages=1, hub_passes=False, edge_passes=edges, blade_strategy=strategy)
     if ruling_step is not None:
         options["swarf_ruling_step_mm"] = ruling_step
     wall, cpu = time.perf_counter(), time.process_time()
@@ -171,6 +173,9 @@ def main() -> None:
     parser.add_argument("--clearance", type=float, default=None)
     parser.add_argument("--ruling-step", type=float, default=None,
                         help="finish: swarf_ruling_step_mm (default: the spec's, else 1 mm)")
+    parser.add_argument("--edge-passes", action="store_true",
+                        help="finish: plan the edge passes too (swarf_or_point leaves the "
+                             "blade points they finish to them)")
     parser.add_argument("--stock", default="blank")
     parser.add_argument("--resolution", type=float, default=0.1)
     parser.add_argument("--sweep-tol", type=float, default=0.01)
@@ -180,7 +185,7 @@ def main() -> None:
     out = args.out / args.fixture
     if args.stage == "finish":
         finish_stage(args.fixture, args.tool, args.strategy, out, args.clearance,
-                     args.ruling_step)
+                     args.ruling_step, args.edge_passes)
     elif args.stage == "verify":
         verify_stage(args.fixture, args.tool, out, args.stock, args.resolution,
                      args.sweep_tol, args.clearance, args.angular_tol)

@@ -40,6 +40,7 @@ import numpy as np
 import trimesh
 
 from cam.collision import CollisionScene
+from cam.finishing.edge_cover import EdgeCover
 from cam.finishing.edge_plan import plan_edges
 from cam.finishing.fillet_plan import check_fillet_tool, plan_fillet
 from cam.finishing.linking import Envelope, Linker, LinkRules
@@ -253,11 +254,14 @@ def _machine_entry(obstacle: MachineObstacle, result: FinishResult,
 
 def _swarf_setup(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                  collision: CollisionScene, opts: FinishOptions, scene: str,
-                 report: Any) -> tuple[FinishResult | None, FinishOptions, Any]:
+                 report: Any, edges: FinishResult | None = None
+                 ) -> tuple[FinishResult | None, FinishOptions, Any]:
     """The checked swarf passes (None for ``blade_strategy = "point"``), the options of
     the point milling (no blade passes for ``"swarf"``) and its ``keep``: the blade
     passes cut to what the swarf passes leave (``"swarf_or_point"``; overlap: a
-    stepover across the rulings, a stepover and a ruling step along the passes)."""
+    stepover across the rulings, a stepover and a ruling step along the passes) and to
+    what the planned ``edges`` leave (``edge_cover``: passage 0's and, when every
+    passage is machined, passage 1's; the trims of passage 0 are rotated)."""
     if opts.blade_strategy == "point":
         return None, opts, None
     from cam.finishing.options import scallop_stepover
@@ -268,8 +272,15 @@ def _swarf_setup(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     if opts.blade_strategy == "swarf":
         return flank, replace(opts, blade_passes=False), None
     stepover = scallop_stepover(tool.radius, opts.scallop_mm)
+    covered = None
+    if edges is not None:
+        blades = surfaces.spec.blades
+        every = opts.passages is None or opts.passages >= blades
+        near = (0, 1) if every else (0,)
+        covered = EdgeCover([r.tip + tool.radius * r.axis for r in edges.paths
+                             if r.path.passage in near], tool.radius, opts.scallop_mm)
     return flank, opts, point_passes_left(flank.extra["swarf_walls"], stepover,
-                                          stepover + opts.swarf_ruling_step_mm)
+                                          stepover + opts.swarf_ruling_step_mm, covered)
 
 
 def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
@@ -390,8 +401,12 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
             if bar is not None:
                 bar.update(task, completed=done, total=total, description=name)
 
+        edges = None
+        if opts.edge_passes:  # first: the point passes leave to them what they finish
+            edges = plan_edges(surfaces, the_tool, kins, collision, opts, scene_source=scene,
+                               progress=report)
         flank, plan_opts, keep = _swarf_setup(surfaces, the_tool, kins, collision, opts,
-                                              scene, report)
+                                              scene, report, edges)
         reach = None if obstacle is None else partial(
             check_machine_reach, obstacle, the_tool, options=opts, machine=str(machine))
         result = plan_finishing(surfaces, the_tool, kins, collision, plan_opts,
@@ -408,9 +423,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                 toolpaths.update(finish_toolpaths(flank, surfaces, collision, kins))
                 tools.update({op: the_tool for op in flank.operations()})
                 result = FinishResult([*result.paths, *flank.paths], the_tool, opts, scene)
-        if opts.edge_passes:
-            edges = plan_edges(surfaces, the_tool, kins, collision, opts, scene_source=scene,
-                               progress=report)
+        if edges is not None:
             toolpaths.update(finish_toolpaths(edges, surfaces, collision, kins))
             tools.update({op: the_tool for op in edges.operations()})
             cut_short += edges.extra["cut_short"]
