@@ -373,7 +373,8 @@ def point_passes_left(walls: list[SwarfWall], overlap_mm: float, end_overlap_mm:
     -------
     PointPassTrim
     """
-    return PointPassTrim({sw.wall.label: sw for sw in walls}, overlap_mm, end_overlap_mm)
+    return PointPassTrim({sw.wall.label: sw for sw in walls}, overlap_mm, end_overlap_mm,
+                         covered)
 
 
 def swarf_check_text(surfaces: ImpellerSurfaces, tool: Tool, options: FinishOptions) -> str:
