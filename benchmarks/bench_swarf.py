@@ -6,8 +6,9 @@ Stages (each writes under ``OUT/FIXTURE/``; run them in order):
   (``swarf_or_point``, ``swarf`` or ``point``), the tool ``-t``, the production
   tolerances of ``bench_finishing.py --production`` (scallop 0.01 mm, chordal 0.01 mm,
   the spec's spacing as the cap; clearance as the main job's), no hub passes and no
-  edge passes unless ``--edge-passes``; every APT posted for trunnion-500 (its own
-  dialect) into ``nc/``.
+  edge passes unless ``--edge-passes`` (``--as-every-passage``: the blade passes
+  trimmed as in a run of every passage, see ``edge_cover``); every APT posted for
+  trunnion-500 (its own dialect) into ``nc/``.
 * ``verify``: (the prediction re-made with the options of the finish stage's
   finish.json) the verifier's own pieces on ``nc/finish_swarf.ngc``: the tool's swept
   primitives (``toolshape``), the program's sub-moves (``program_moves``, sweep
@@ -45,7 +46,7 @@ def spec_path(fixture: str) -> Path:
 
 def finish_stage(fixture: str, tool: str, strategy: str, out: Path,
                  clearance: float | None, ruling_step: float | None = None,
-                 edges: bool = False) -> None:
+                 edges: bool = False, every_passage: bool = False) -> None:
     import tomllib
 
     from cam.finishing.command import run_finish
@@ -60,6 +61,10 @@ def finish_stage(fixture: str, tool: str, strategy: str, out: Path,
     options.update(passages=1, hub_passes=False, edge_passes=edges, blade_strategy=strategy)
     if ruling_step is not None:
         options["swarf_ruling_step_mm"] = ruling_step
+    if every_passage:  # the trims of a run of every passage (passage 0 planned only)
+        import cam.finishing.command as command
+
+        setattr(command, "edge_cover_turns", lambda options, blades: (-1, 0, 1))  # noqa: B010
     wall, cpu = time.perf_counter(), time.process_time()
     result = run_finish(spec_path(fixture), MACHINE, tool, out / "finish", plots=False,
                         machine_obstacle=False, **options)
@@ -176,6 +181,10 @@ def main() -> None:
     parser.add_argument("--edge-passes", action="store_true",
                         help="finish: plan the edge passes too (swarf_or_point leaves the "
                              "blade points they finish to them)")
+    parser.add_argument("--as-every-passage", action="store_true",
+                        help="finish, with --edge-passes: passage 0's blade passes trimmed "
+                             "as in a run of every passage (the neighbours' edge passes, "
+                             "passage 0's turned, finish its walls' edge ends)")
     parser.add_argument("--stock", default="blank")
     parser.add_argument("--resolution", type=float, default=0.1)
     parser.add_argument("--sweep-tol", type=float, default=0.01)
@@ -185,7 +194,7 @@ def main() -> None:
     out = args.out / args.fixture
     if args.stage == "finish":
         finish_stage(args.fixture, args.tool, args.strategy, out, args.clearance,
-                     args.ruling_step, args.edge_passes)
+                     args.ruling_step, args.edge_passes, args.as_every_passage)
     elif args.stage == "verify":
         verify_stage(args.fixture, args.tool, out, args.stock, args.resolution,
                      args.sweep_tol, args.clearance, args.angular_tol)

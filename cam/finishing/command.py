@@ -40,7 +40,7 @@ import numpy as np
 import trimesh
 
 from cam.collision import CollisionScene
-from cam.finishing.edge_cover import EdgeCover
+from cam.finishing.edge_cover import EdgeCover, edge_cover_turns
 from cam.finishing.edge_plan import plan_edges
 from cam.finishing.fillet_plan import check_fillet_tool, plan_fillet
 from cam.finishing.linking import Envelope, Linker, LinkRules
@@ -60,7 +60,7 @@ from cam.finishing.stock_clearance import (
 )
 from cam.tools import Tool, resolve_tool
 from geometry.spec import load_spec
-from geometry.surfaces import ImpellerSurfaces, build_surfaces
+from geometry.surfaces import ImpellerSurfaces, build_surfaces, rotation_z
 from impeller_cam.atomic import staged_directory, write_text_atomic
 from impeller_cam.errors import InputError
 from impeller_cam.progress import progress_bar
@@ -260,8 +260,7 @@ def _swarf_setup(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     the point milling (no blade passes for ``"swarf"``) and its ``keep``: the blade
     passes cut to what the swarf passes leave (``"swarf_or_point"``; overlap: a
     stepover across the rulings, a stepover and a ruling step along the passes) and to
-    what the planned ``edges`` leave (``edge_cover``: passage 0's and, when every
-    passage is machined, passage 1's; the trims of passage 0 are rotated)."""
+    what the planned ``edges`` of passage 0 leave, turned by ``edge_cover_turns``."""
     if opts.blade_strategy == "point":
         return None, opts, None
     from cam.finishing.options import scallop_stepover
@@ -274,11 +273,10 @@ def _swarf_setup(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     stepover = scallop_stepover(tool.radius, opts.scallop_mm)
     covered = None
     if edges is not None:
-        blades = surfaces.spec.blades
-        every = opts.passages is None or opts.passages >= blades
-        near = (0, 1) if every else (0,)
-        covered = EdgeCover([r.tip + tool.radius * r.axis for r in edges.paths
-                             if r.path.passage in near], tool.radius, opts.scallop_mm)
+        balls = [r.tip + tool.radius * r.axis for r in edges.paths if r.path.passage == 0]
+        covered = EdgeCover([b @ rotation_z(k * surfaces.spec.pitch).T for k in
+                             edge_cover_turns(opts, surfaces.spec.blades) for b in balls],
+                            tool.radius, opts.scallop_mm)
     return flank, opts, point_passes_left(flank.extra["swarf_walls"], stepover,
                                           stepover + opts.swarf_ruling_step_mm, covered)
 

@@ -8,6 +8,13 @@ overlap, its neighbour (nine_blade, passage 0, scallop 0.01 mm: 488 of 780 piece
 (``edge_paths``) run ``OVERLAP_MM`` back onto both sides at the same scallop
 stepover, so those stubs cut again what they cut.
 
+Passage 0's walls are blade 0's pressure side and blade 1's suction side; passage 0's
+edge passes wrap blade 0, passage 1's blade 1. The blade passes of every passage are
+passage 0's trims turned (``plan.plan_finishing``), so passage 0's trims may leave to
+the edge passes what passage 0's edges finish and, when every passage is machined,
+what the neighbours' do: passage 0's turned by a pitch (``edge_cover_turns``; in a
+run of fewer passages the last one's second wall would find no edge passes there).
+
 ``EdgeCover`` says which blade points the *planned* edge passes (their final
 postures, pieces cut short left out) finish to the scallop: the material the swept
 edge balls leave at the point's contact ``x = c - R n`` (``c`` the blade pass's ball
@@ -20,6 +27,7 @@ centre, ``n`` the side's normal) is at most the scallop height, ``min_j |x - q_j
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,7 +35,10 @@ from scipy.spatial import cKDTree
 
 from cam.finishing.fillet_cover import densify
 
-__all__ = ["DENSIFY_MM", "EdgeCover"]
+if TYPE_CHECKING:
+    from cam.finishing.options import FinishOptions
+
+__all__ = ["DENSIFY_MM", "EdgeCover", "edge_cover_turns"]
 
 Array = NDArray[np.float64]
 #: Largest spacing of the densified edge-ball centres, mm.
@@ -65,3 +76,11 @@ class EdgeCover:
         reach = self.radius + self.scallop
         distance, _ = self.tree.query(contact, distance_upper_bound=2.0 * reach)
         return np.asarray(distance - self.radius <= self.scallop)
+
+
+def edge_cover_turns(options: FinishOptions, blades: int) -> tuple[int, ...]:
+    """Pitches by which passage 0's edge passes are turned to cover passage 0's walls:
+    ``(-1, 0, 1)`` when every passage is machined (the neighbours' edges: one of them
+    finishes passage 0's second wall at its edges), else ``(0,)``."""
+    every = options.passages is None or options.passages >= blades
+    return (-1, 0, 1) if every else (0,)

@@ -88,3 +88,15 @@ def test_covered_points_are_left_to_the_cover() -> None:
         np.testing.assert_array_equal(after, reach <= end)
         dropped += int((before & ~after).sum())
     assert dropped > 0
+
+
+def test_the_neighbours_edges_count_only_when_every_passage_is_machined() -> None:
+    from dataclasses import replace
+
+    from cam.finishing.edge_cover import edge_cover_turns
+
+    options = FinishOptions()
+    assert edge_cover_turns(replace(options, passages=None), 9) == (-1, 0, 1)
+    assert edge_cover_turns(replace(options, passages=9), 9) == (-1, 0, 1)
+    assert edge_cover_turns(replace(options, passages=8), 9) == (0,)
+    assert edge_cover_turns(replace(options, passages=1), 9) == (0,)
