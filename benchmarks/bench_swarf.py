@@ -19,8 +19,9 @@ Stages (each writes under ``OUT/FIXTURE/``; run them in order):
   program made, measured on each pass's band against the exact side and the
   verifier's design mesh and compared with the prediction
   (``cam.finishing.swarf_verify.measure_passes``).
-* ``cycle``: the product's cycle-time model (``program_cycle_time``: jerk-limited,
-  exact stop) of every NC program of the run.
+* ``cycle``: the product's cycle-time model (the motion stage's: exact stop at every
+  block, ``cycle_time_s``, and blended within G64 P, ``blended_s``) of every NC
+  program of the run.
 
 Run: ``python benchmarks/bench_swarf.py STAGE FIXTURE -t TOOL --out DIR [...]``.
 """
@@ -153,17 +154,22 @@ def verify_stage(fixture: str, tool_name: str, out: Path, stock_arg: str, resolu
 
 
 def cycle_stage(out: Path) -> None:
-    from cam.motion.cycle_time import program_cycle_time
+    """Every NC program's cycle time under the motion stage's model
+    (``cam.motion.breakdown.program_file_times``), s: ``cycle_time_s`` a jerk-limited
+    stop at every block (as before), ``blended_s`` blended within the program's G64 P,
+    and the nominal time."""
+    from cam.motion.breakdown import program_file_times
     from postproc.machine import load_machine
-    from postproc.nc_reader import read_nc
 
     machine = load_machine(MACHINE)
     times = {}
     for ngc in sorted((out / "nc").glob("*.ngc")):
-        ct = program_cycle_time(read_nc(ngc, machine=machine), machine)
-        times[ngc.name] = {"cycle_time_s": round(ct.limited_total, 2),
-                           "nominal_time_s": round(ct.nominal_total, 2),
-                           "blocks": len(ct.line)}
+        found = program_file_times(ngc, out / "finish" / ngc.with_suffix(".apt").name,
+                                   machine)
+        times[ngc.name] = {"cycle_time_s": round(float(found["exact_stop_s"]), 2),
+                           "blended_s": round(float(found["cycle_time_s"]), 2),
+                           "nominal_time_s": round(float(found["nominal_s"]), 2),
+                           "blocks": int(found["blocks"])}
     (out / "cycle.json").write_text(json.dumps(times, indent=1))
     print(json.dumps({"stage": "cycle", "out": str(out), "programs": times}))
 
