@@ -124,7 +124,8 @@ def edges_by_symmetry(out: Path, spec_path: Path, match_mm: float = 0.1) -> dict
     edge samples turned by ``-pitch`` about the axis show what the last passage's
     operations leave on blade 0's edges. A run of every passage removes at least the
     union of the two, so at each of blade 0's edge samples ``min(own, turned)`` (the
-    turned sample nearest, within ``match_mm``) bounds what it leaves from above, up
+    turned sample whose foot on the design is nearest its foot, within ``match_mm``)
+    bounds what it leaves from above, up
     to the dexel sampling (the two sample sets are not the same points) and to the
     passages' postures differing by their own remedies.
 
@@ -148,6 +149,11 @@ def edges_by_symmetry(out: Path, spec_path: Path, match_mm: float = 0.1) -> dict
     design = LabelledDesign(spec_path)
     signed, faces = design.distance.closest(points)
     role, main = design.face_roles[faces], ~design.face_splitter[faces]
+    # each sample's foot on the design (along its closest face's normal): samples of
+    # a roughed surface lie millimetres off it, a finished one's on it
+    normal = np.zeros((int(design.distance.source_face.max()) + 1, 3))
+    normal[design.distance.source_face] = design.distance.normals
+    foot = points - signed[:, None] * normal[faces]
     finish = json.loads((out / "finish" / "finish.json").read_text())
     limit = float(finish["options"]["scallop_mm"]) + DEFAULT_TOLERANCES.gouge
     c, s = math.cos(-float(spec.pitch)), math.sin(-float(spec.pitch))
@@ -165,7 +171,7 @@ def edges_by_symmetry(out: Path, spec_path: Path, match_mm: float = 0.1) -> dict
         if not own.any() or not other.any():
             report[edge] = None
             continue
-        distance, index = cKDTree(points[other] @ turn.T).query(points[own])
+        distance, index = cKDTree(foot[other] @ turn.T).query(foot[own])
         matched = distance <= match_mm
         turned = signed[other][index]
         combined = np.where(matched, np.minimum(signed[own], turned), signed[own])
