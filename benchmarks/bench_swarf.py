@@ -5,8 +5,10 @@ Stages (each writes under ``OUT/FIXTURE/``; run them in order):
 * ``finish``: ``run_finish`` on passage 0 (solid scene) with ``--strategy``
   (``swarf_or_point``, ``swarf`` or ``point``), the tool ``-t``, the production
   tolerances of ``bench_finishing.py --production`` (scallop 0.01 mm, chordal 0.01 mm,
-  the spec's spacing as the cap; clearance as the main job's) and no hub or edge
-  passes; every APT posted for trunnion-500 (its own dialect) into ``nc/``.
+  the spec's spacing as the cap; clearance as the main job's), no hub passes and no
+  edge passes unless ``--edge-passes`` (``--as-every-passage``: the blade passes
+  trimmed as in a run of every passage, see ``edge_cover``); every APT posted for
+  trunnion-500 (its own dialect) into ``nc/``.
 * ``verify``: (the prediction re-made with the options of the finish stage's
   finish.json) the verifier's own pieces on ``nc/finish_swarf.ngc``: the tool's swept
   primitives (``toolshape``), the program's sub-moves (``program_moves``, sweep
@@ -17,8 +19,9 @@ Stages (each writes under ``OUT/FIXTURE/``; run them in order):
   program made, measured on each pass's band against the exact side and the
   verifier's design mesh and compared with the prediction
   (``cam.finishing.swarf_verify.measure_passes``).
-* ``cycle``: the product's cycle-time model (``program_cycle_time``: jerk-limited,
-  exact stop) of every NC program of the run.
+* ``cycle``: the product's cycle-time model (the motion stage's: exact stop at every
+  block, ``cycle_time_s``, and blended within G64 P, ``blended_s``) of every NC
+  program of the run.
 
 Run: ``python benchmarks/bench_swarf.py STAGE FIXTURE -t TOOL --out DIR [...]``.
 """
@@ -43,7 +46,8 @@ def spec_path(fixture: str) -> Path:
 
 
 def finish_stage(fixture: str, tool: str, strategy: str, out: Path,
-                 clearance: float | None, ruling_step: float | None = None) -> None:
+                 clearance: float | None, ruling_step: float | None = None,
+                 edges: bool = False, every_passage: bool = False) -> None:
     import tomllib
 
     from cam.finishing.command import run_finish
@@ -55,9 +59,13 @@ def finish_stage(fixture: str, tool: str, strategy: str, out: Path,
     if clearance is not None:
         options["clearance_mm"] = clearance
         options["clearance_exact_mm"] = max(3.0, clearance)
-    options.update(passages=1, hub_passes=False, edge_passes=False, blade_strategy=strategy)
+    options.update(passages=1, hub_passes=False, edge_passes=edges, blade_strategy=strategy)
     if ruling_step is not None:
         options["swarf_ruling_step_mm"] = ruling_step
+    if every_passage:  # the trims of a run of every passage (passage 0 planned only)
+        import cam.finishing.command as command
+
+        setattr(command, "edge_cover_turns", lambda options, blades: (-1, 0, 1))  # noqa: B010
     wall, cpu = time.perf_counter(), time.process_time()
     result = run_finish(spec_path(fixture), MACHINE, tool, out / "finish", plots=False,
                         machine_obstacle=False, **options)
@@ -146,17 +154,22 @@ def verify_stage(fixture: str, tool_name: str, out: Path, stock_arg: str, resolu
 
 
 def cycle_stage(out: Path) -> None:
-    from cam.motion.cycle_time import program_cycle_time
+    """Every NC program's cycle time under the motion stage's model
+    (``cam.motion.breakdown.program_file_times``), s: ``cycle_time_s`` a jerk-limited
+    stop at every block (as before), ``blended_s`` blended within the program's G64 P,
+    and the nominal time."""
+    from cam.motion.breakdown import program_file_times
     from postproc.machine import load_machine
-    from postproc.nc_reader import read_nc
 
     machine = load_machine(MACHINE)
     times = {}
     for ngc in sorted((out / "nc").glob("*.ngc")):
-        ct = program_cycle_time(read_nc(ngc, machine=machine), machine)
-        times[ngc.name] = {"cycle_time_s": round(ct.limited_total, 2),
-                           "nominal_time_s": round(ct.nominal_total, 2),
-                           "blocks": len(ct.line)}
+        found = program_file_times(ngc, out / "finish" / ngc.with_suffix(".apt").name,
+                                   machine)
+        times[ngc.name] = {"cycle_time_s": round(float(found["exact_stop_s"]), 2),
+                           "blended_s": round(float(found["cycle_time_s"]), 2),
+                           "nominal_time_s": round(float(found["nominal_s"]), 2),
+                           "blocks": int(found["blocks"])}
     (out / "cycle.json").write_text(json.dumps(times, indent=1))
     print(json.dumps({"stage": "cycle", "out": str(out), "programs": times}))
 
@@ -171,6 +184,13 @@ def main() -> None:
     parser.add_argument("--clearance", type=float, default=None)
     parser.add_argument("--ruling-step", type=float, default=None,
                         help="finish: swarf_ruling_step_mm (default: the spec's, else 1 mm)")
+    parser.add_argument("--edge-passes", action="store_true",
+                        help="finish: plan the edge passes too (swarf_or_point leaves the "
+                             "blade points they finish to them)")
+    parser.add_argument("--as-every-passage", action="store_true",
+                        help="finish, with --edge-passes: passage 0's blade passes trimmed "
+                             "as in a run of every passage (the neighbours' edge passes, "
+                             "passage 0's turned, finish its walls' edge ends)")
     parser.add_argument("--stock", default="blank")
     parser.add_argument("--resolution", type=float, default=0.1)
     parser.add_argument("--sweep-tol", type=float, default=0.01)
@@ -180,7 +200,7 @@ def main() -> None:
     out = args.out / args.fixture
     if args.stage == "finish":
         finish_stage(args.fixture, args.tool, args.strategy, out, args.clearance,
-                     args.ruling_step)
+                     args.ruling_step, args.edge_passes, args.as_every_passage)
     elif args.stage == "verify":
         verify_stage(args.fixture, args.tool, out, args.stock, args.resolution,
                      args.sweep_tol, args.clearance, args.angular_tol)

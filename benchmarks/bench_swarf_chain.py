@@ -16,6 +16,9 @@ of passage 0 beside the roughed others. This script reads that run:
   pass against the exact side and the prediction
   (``cam.finishing.swarf_verify.measure_passes``; the prediction re-made from
   finish.json's options): the two ranges, and sample by sample (``pointwise``);
+* **edges** (``edges_by_symmetry``): blade 0's edges as a run of every passage would
+  leave them: its own samples and blade 1's turned back by one pitch (what the last
+  passage's operations leave there), the smaller of the two;
 * **cycle**: the motion stage's cycle times (blended and exact stop) of every finish
   NC program of the run.
 
@@ -28,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import time
 from pathlib import Path
 from typing import Any
@@ -107,6 +111,74 @@ def passage_regions(out: Path, spec_path: Path) -> dict[str, Any]:
                 "min_mm": round(float(values.min()), 4),
                 "over_limit": int((values > allowance + tolerance).sum())}
     return summary
+
+
+def edges_by_symmetry(out: Path, spec_path: Path, match_mm: float = 0.1) -> dict[str, Any]:
+    """Blade 0's edges as a run of every passage would leave them, from a ``passages =
+    1`` run.
+
+    Blade 0's edges are cut by passage 0's edge passes and by the operations of its
+    two walls: its pressure side (passage 0's) and its suction side (the last
+    passage's, not run). Blade 1's suction side is passage 0's wall: the programs of
+    the last passage are those of passage 0 turned by one pitch back, so blade 1's
+    edge samples turned by ``-pitch`` about the axis show what the last passage's
+    operations leave on blade 0's edges. A run of every passage removes at least the
+    union of the two, so at each of blade 0's edge samples ``min(own, turned)`` (the
+    turned sample whose foot on the design is nearest its foot, within ``match_mm``)
+    bounds what it leaves from above, up
+    to the dexel sampling (the two sample sets are not the same points) and to the
+    passages' postures differing by their own remedies.
+
+    Returns
+    -------
+    dict
+        Per edge: samples, matched, and ``own`` / ``combined`` max, p99 and the
+        samples over the limit (allowance = the finishing scallop + the gouge
+        tolerance), mm.
+    """
+    from cam.run.regions import LabelledDesign
+    from cam.verify.stock import Stock
+    from geometry.spec import load_spec
+    from impeller_cam.tolerances import DEFAULT_TOLERANCES
+
+    spec = load_spec(spec_path)
+    points, _, _ = Stock.load(out / "verify" / "finish" / "stock.npz").surface_samples()
+    d = pitch_position(points, spec)
+    near = (d > -0.5) & (d < 1.5)
+    points, d = points[near], d[near]
+    design = LabelledDesign(spec_path)
+    signed, faces = design.distance.closest(points)
+    role, main = design.face_roles[faces], ~design.face_splitter[faces]
+    # each sample's foot on the design (along its closest face's normal): samples of
+    # a roughed surface lie millimetres off it, a finished one's on it
+    normal = np.zeros((int(design.distance.source_face.max()) + 1, 3))
+    normal[design.distance.source_face] = design.distance.normals
+    foot = points - signed[:, None] * normal[faces]
+    finish = json.loads((out / "finish" / "finish.json").read_text())
+    limit = float(finish["options"]["scallop_mm"]) + DEFAULT_TOLERANCES.gouge
+    c, s = math.cos(-float(spec.pitch)), math.sin(-float(spec.pitch))
+    turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+    def figures(values: NDArray[np.float64]) -> dict[str, Any]:
+        return {"max_mm": round(float(values.max()), 4),
+                "p99_mm": round(float(np.percentile(values, 99)), 4),
+                "over_limit": int((values > limit).sum())}
+
+    report: dict[str, Any] = {"limit_mm": limit, "match_mm": match_mm}
+    for edge in ("leading_edge", "trailing_edge"):
+        own = main & (np.abs(d) < 0.5) & (role == edge)
+        other = main & (np.abs(d - 1.0) < 0.5) & (role == edge)
+        if not own.any() or not other.any():
+            report[edge] = None
+            continue
+        distance, index = cKDTree(foot[other] @ turn.T).query(foot[own])
+        matched = distance <= match_mm
+        turned = signed[other][index]
+        combined = np.where(matched, np.minimum(signed[own], turned), signed[own])
+        report[edge] = {"samples": int(own.sum()), "matched": int(matched.sum()),
+                        "own": figures(signed[own]), "combined": figures(combined),
+                        "combined_matched": figures(combined[matched])}
+    return report
 
 
 def swarf_passes(out: Path, spec_path: Path) -> dict[str, Any]:
@@ -218,14 +290,15 @@ def main() -> None:
     parser.add_argument("--machine", type=Path, default=Path(__file__).resolve().parents[1]
                         / "fixtures" / "machines" / "trunnion-500.toml")
     parser.add_argument("--skip", nargs="*", default=[],
-                        choices=["faces", "passes", "cycle"])
+                        choices=["faces", "passes", "cycle", "edges"])
     args = parser.parse_args()
     target = args.out / "swarf_chain.json"
     report: dict[str, Any] = json.loads(target.read_text()) if target.is_file() else {}
     report.update(out=str(args.out), spec=str(args.spec))  # stages skipped keep theirs
     for name, stage in (("cycle", lambda: cycle(args.out, args.machine)),
                         ("faces", lambda: passage_regions(args.out, args.spec)),
-                        ("passes", lambda: swarf_passes(args.out, args.spec))):
+                        ("passes", lambda: swarf_passes(args.out, args.spec)),
+                        ("edges", lambda: edges_by_symmetry(args.out, args.spec))):
         if name in args.skip:
             continue
         start = time.perf_counter()

@@ -40,6 +40,7 @@ import numpy as np
 import trimesh
 
 from cam.collision import CollisionScene
+from cam.finishing.edge_cover import EdgeCover, edge_cover_turns
 from cam.finishing.edge_plan import plan_edges
 from cam.finishing.fillet_plan import check_fillet_tool, plan_fillet
 from cam.finishing.linking import Envelope, Linker, LinkRules
@@ -59,13 +60,13 @@ from cam.finishing.stock_clearance import (
 )
 from cam.tools import Tool, resolve_tool
 from geometry.spec import load_spec
-from geometry.surfaces import ImpellerSurfaces, build_surfaces
+from geometry.surfaces import ImpellerSurfaces, build_surfaces, rotation_z
 from impeller_cam.atomic import staged_directory, write_text_atomic
 from impeller_cam.errors import InputError
 from impeller_cam.progress import progress_bar
 from postproc.apt import write_apt
 from postproc.kinematics import Kinematics
-from postproc.toolpath import Cutter, Toolpath
+from postproc.toolpath import Cutter, MoveKind, Toolpath
 
 if TYPE_CHECKING:
     from cam.verify.deviation import DesignDistance
@@ -80,6 +81,10 @@ SURFACE_MESH_SPACING = 1.0
 #: Ray spacing of the spec's blank when it stands for the part in the machine check, mm
 #: (coarser casts give a larger solid of revolution: on the safe side).
 BLANK_PITCH = 1.0
+#: Largest change of the unit tool axis over a rapid the post writes as one straight
+#: ``G0`` (a rapid turning a rotary joint by more than ``postproc.feeds.ROTARY_STILL``,
+#: 1e-12 rad, gets the post's safe retract).
+AXIS_STILL = 1e-9
 #: Paper figures quoted next to ours in finish.json.
 PAPER = {"junction_cc_points": 475, "paths": 26, "reversals_after": 0}
 
@@ -136,21 +141,32 @@ def _tool_entry(tool: Tool) -> dict[str, Any]:
 def _check_links(scene: CollisionScene, tool: Tool, toolpath: Toolpath,
                  air: np.ndarray, options: FinishOptions) -> int:
     """Collision-check every air move that is not a checked link (those are checked in
-    joint space by ``Linker``), linearly in W as the planner means them; the count."""
+    joint space by ``Linker``), linearly in W as the planner means them; the count.
+
+    Feed moves (departures, approaches, stepovers) are checked as cuts: the cutter,
+    shrunk by the cutting allowance, may cut the stock. A rapid that keeps the tool
+    axis (the post writes it as one straight ``G0``; one that turns it is guarded by
+    the post's safe retract) is checked as a rapid: the whole tool, the cutter over its
+    fluted length grown by ``clearance_mm``, against the design and the stock.
+    """
     moving = (air & ~toolpath.link)[1:]
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], moving.astype(np.int8), [0]])))
+    still = np.linalg.norm(np.diff(toolpath.axis, axis=0), axis=1) < AXIS_STILL
+    rapid = moving & (toolpath.kind[1:] == MoveKind.RAPID) & still
     bad = 0
-    for start, stop in zip(edges[::2], edges[1::2], strict=True):
-        tip, axis = toolpath.tip[start:stop + 1], toolpath.axis[start:stop + 1]
-        report = scene.check_motion(tool, tip, axis, max_step_mm=options.motion_step_mm,
-                                    max_step_deg=options.motion_step_deg,
-                                    cutter_allowance=options.cutter_allowance_mm,
-                                    # only compared with the limit: exact below it
-                                    clearance_cap=options.clearance_mm,
-                                    clearance_limits=(options.clearance_mm,))
-        clear = np.asarray(report.clearance)
-        bad += int((report.collides | (np.isfinite(clear)
-                                       & (clear < options.clearance_mm))).sum())
+    for mask, allowance in ((moving & ~rapid, options.cutter_allowance_mm),
+                            (rapid, -options.clearance_mm)):
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
+        for start, stop in zip(edges[::2], edges[1::2], strict=True):
+            tip, axis = toolpath.tip[start:stop + 1], toolpath.axis[start:stop + 1]
+            report = scene.check_motion(tool, tip, axis, max_step_mm=options.motion_step_mm,
+                                        max_step_deg=options.motion_step_deg,
+                                        cutter_allowance=allowance,
+                                        # only compared with the limit: exact below it
+                                        clearance_cap=options.clearance_mm,
+                                        clearance_limits=(options.clearance_mm,))
+            clear = np.asarray(report.clearance)
+            bad += int((report.collides | (np.isfinite(clear)
+                                           & (clear < options.clearance_mm))).sum())
     return bad
 
 
@@ -238,11 +254,13 @@ def _machine_entry(obstacle: MachineObstacle, result: FinishResult,
 
 def _swarf_setup(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                  collision: CollisionScene, opts: FinishOptions, scene: str,
-                 report: Any) -> tuple[FinishResult | None, FinishOptions, Any]:
+                 report: Any, edges: FinishResult | None = None
+                 ) -> tuple[FinishResult | None, FinishOptions, Any]:
     """The checked swarf passes (None for ``blade_strategy = "point"``), the options of
     the point milling (no blade passes for ``"swarf"``) and its ``keep``: the blade
     passes cut to what the swarf passes leave (``"swarf_or_point"``; overlap: a
-    stepover across the rulings, a stepover and a ruling step along the passes)."""
+    stepover across the rulings, a stepover and a ruling step along the passes) and to
+    what the planned ``edges`` of passage 0 leave, turned by ``edge_cover_turns``."""
     if opts.blade_strategy == "point":
         return None, opts, None
     from cam.finishing.options import scallop_stepover
@@ -253,8 +271,14 @@ def _swarf_setup(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     if opts.blade_strategy == "swarf":
         return flank, replace(opts, blade_passes=False), None
     stepover = scallop_stepover(tool.radius, opts.scallop_mm)
+    covered = None
+    if edges is not None:
+        balls = [r.tip + tool.radius * r.axis for r in edges.paths if r.path.passage == 0]
+        covered = EdgeCover([b @ rotation_z(k * surfaces.spec.pitch).T for k in
+                             edge_cover_turns(opts, surfaces.spec.blades) for b in balls],
+                            tool.radius, opts.scallop_mm)
     return flank, opts, point_passes_left(flank.extra["swarf_walls"], stepover,
-                                          stepover + opts.swarf_ruling_step_mm)
+                                          stepover + opts.swarf_ruling_step_mm, covered)
 
 
 def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
@@ -375,8 +399,12 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
             if bar is not None:
                 bar.update(task, completed=done, total=total, description=name)
 
+        edges = None
+        if opts.edge_passes:  # first: the point passes leave to them what they finish
+            edges = plan_edges(surfaces, the_tool, kins, collision, opts, scene_source=scene,
+                               progress=report)
         flank, plan_opts, keep = _swarf_setup(surfaces, the_tool, kins, collision, opts,
-                                              scene, report)
+                                              scene, report, edges)
         reach = None if obstacle is None else partial(
             check_machine_reach, obstacle, the_tool, options=opts, machine=str(machine))
         result = plan_finishing(surfaces, the_tool, kins, collision, plan_opts,
@@ -393,9 +421,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                 toolpaths.update(finish_toolpaths(flank, surfaces, collision, kins))
                 tools.update({op: the_tool for op in flank.operations()})
                 result = FinishResult([*result.paths, *flank.paths], the_tool, opts, scene)
-        if opts.edge_passes:
-            edges = plan_edges(surfaces, the_tool, kins, collision, opts, scene_source=scene,
-                               progress=report)
+        if edges is not None:
             toolpaths.update(finish_toolpaths(edges, surfaces, collision, kins))
             tools.update({op: the_tool for op in edges.operations()})
             cut_short += edges.extra["cut_short"]

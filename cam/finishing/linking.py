@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from cam.finishing.axial_moves import AxialMove, axial_moves
 from cam.finishing.envelope import Envelope, retract_length, stepped_link
 from cam.finishing.lead_blend import tangent_leads
 from cam.finishing.stepover_blend import Stepover, feed_stepover
@@ -180,7 +181,7 @@ class Linker:
 
     # -- checks ---------------------------------------------------------------------
 
-    def _rapid_free(self, joints: Array) -> bool:
+    def rapid_free(self, joints: Array) -> bool:
         """Joint-space straight moves through ``joints`` (k, 5) keep the rapid clearance."""
         r = self.rules
         samples = [joints[:1]]
@@ -219,7 +220,7 @@ class Linker:
             return False
         return True
 
-    def _inverse(self, tip: Array, axis: Array, previous: Array) -> Array:
+    def inverse(self, tip: Array, axis: Array, previous: Array) -> Array:
         return self.kins.inverse(np.reshape(tip, (-1, 3)), np.reshape(axis, (-1, 3)),
                                  previous=previous)
 
@@ -356,6 +357,13 @@ class Linker:
             for row in range(before, len(moves.tip)):
                 owner[row] = len(reports) if link else -1
 
+        def ends_way(way: list[AxialMove], axis: Array) -> None:
+            # the operation's way in or out (``axial_moves``): not a link of the report
+            for move in way:
+                before = len(moves.tip)
+                add(move.tip, axis, move.kind, move.feed, move.link, True, move.joints)
+                owner[before] = -1
+
         exit_point: tuple[Array, Array, Array, float | None] | None = None
         previous_name = ""
         for index, p in enumerate(passes):
@@ -379,12 +387,8 @@ class Linker:
                     outer_in = entry
                 add(outer_in, p.axis[0], MoveKind.RAPID, math.nan, False, True)
                 if start is not None and outer_in is not entry:
-                    q = self._inverse(np.stack([outer_in, entry]), np.stack([p.axis[0]] * 2),
-                                      p.joints_start)
-                    before = len(moves.tip)
-                    add(entry, p.axis[0], MoveKind.RAPID, math.nan, self._rapid_free(q), True,
-                        q)
-                    owner[before] = -1
+                    ends_way(axial_moves(self, outer_in, entry, p.axis[0], p.joints_start,
+                                         inward=True), p.axis[0])
             else:
                 kind = self._link(exit_point, (entry, p.axis[0], p.joints_start), add,
                                   floor.get(len(reports), 0))
@@ -422,12 +426,8 @@ class Linker:
                     * exit_point[1]
                 if not self._reachable(outer, exit_point[1]):
                     break  # beyond the travel: the post's end retract leaves from here
-                q = self._inverse(np.stack([exit_point[0], outer]),
-                                  np.stack([exit_point[1]] * 2), p.joints_end)
-                before = len(moves.tip)
-                add(outer, exit_point[1], MoveKind.RAPID, math.nan, self._rapid_free(q), True,
-                    q)
-                owner[before] = -1
+                ends_way(axial_moves(self, exit_point[0], outer, exit_point[1],
+                                     p.joints_end, inward=False), exit_point[1])
         return moves, air, reports, owner
 
     def _moved(self, tip: Array, axis: Array, link: NDArray[np.bool_],
@@ -450,7 +450,7 @@ class Linker:
             step = joints[row] - joints[row - 1]
             if np.allclose(step, delta[row], rtol=0.0, atol=1e-9):
                 continue
-            if not self._rapid_free(joints[row - 1:row + 1]):
+            if not self.rapid_free(joints[row - 1:row + 1]):
                 bad.append(int(row))
         return bad
 
@@ -461,8 +461,8 @@ class Linker:
         r = self.rules
         a_tip, a_axis, a_joints, _ = exit_point
         b_tip, b_axis, _ = entry
-        q = self._inverse(np.stack([a_tip, b_tip]), np.stack([a_axis, b_axis]), a_joints)
-        if level <= 0 and self._rapid_free(q):
+        q = self.inverse(np.stack([a_tip, b_tip]), np.stack([a_axis, b_axis]), a_joints)
+        if level <= 0 and self.rapid_free(q):
             add(b_tip, b_axis, MoveKind.RAPID, math.nan, True, True, q)
             return "direct"
         lengths = retract_length(np.stack([a_tip, b_tip]), np.stack([a_axis, b_axis]),
@@ -473,10 +473,10 @@ class Linker:
         axes = np.stack([a_axis, a_axis, b_axis, b_axis])
         joints: Array | None
         try:
-            joints = self._inverse(tips, axes, a_joints)
+            joints = self.inverse(tips, axes, a_joints)
         except OverTravelError:  # the cylinder points lie beyond the machine's travel
             joints = None
-        free = [joints is not None and self._rapid_free(joints[i:i + 2]) for i in range(3)]
+        free = [joints is not None and self.rapid_free(joints[i:i + 2]) for i in range(3)]
         if level <= 1 and all(free):
             add(tips[1:], axes[1:], MoveKind.RAPID, math.nan, True, True, joints)
             return "clearance"

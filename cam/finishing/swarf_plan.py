@@ -291,11 +291,14 @@ class PointPassTrim:
         The checked walls by label.
     overlap_mm, end_overlap_mm : float
         See ``point_passes_left``.
+    covered : callable, optional
+        See ``point_passes_left``.
     """
 
     walls: dict[str, SwarfWall]
     overlap_mm: float
     end_overlap_mm: float
+    covered: Callable[[Array, Array], NDArray[np.bool_]] | None = None
 
     def __call__(self, path: CutterPath) -> NDArray[np.bool_] | None:
         """None for a pass kept whole (not a blade pass, no swarf wall, nothing inside
@@ -306,6 +309,8 @@ class PointPassTrim:
         if sw is None:
             return None
         left = ~sw.inside(path.wall.own_u(path.curve_u), path.blade_v, self.overlap_mm)
+        if self.covered is not None:
+            left &= ~self.covered(path.centre, path.normal)
         if left.all():
             return None
         if not left.any():
@@ -334,7 +339,8 @@ class PointPassTrim:
         return int(np.sum(middles < 0.5 * (u.min() + u.max())))
 
 
-def point_passes_left(walls: list[SwarfWall], overlap_mm: float, end_overlap_mm: float
+def point_passes_left(walls: list[SwarfWall], overlap_mm: float, end_overlap_mm: float,
+                      covered: Callable[[Array, Array], NDArray[np.bool_]] | None = None
                       ) -> PointPassTrim:
     """``keep`` for ``plan.plan_finishing``: the blade passes cut to what swarf leaves.
 
@@ -343,8 +349,10 @@ def point_passes_left(walls: list[SwarfWall], overlap_mm: float, end_overlap_mm:
     (``SwarfWall.inside``) and at least ``end_overlap_mm`` along the pass (the ball
     centres' arc length) from every point that does not: the point passes overlap
     the swarf band by about a stepover across the rulings and by ``end_overlap_mm``
-    where they run into or out of it, so no ridge stays between the two. The pieces
-    are machined region by region (``PointPassTrim.region``, ``pieces.trimmed_passes``).
+    where they run into or out of it, so no ridge stays between the two. A point
+    ``covered`` finishes (the edge passes' ends: ``edge_cover.EdgeCover``) is left to it
+    as well, so no stub is kept at a pass's edge end. The pieces are machined region
+    by region (``PointPassTrim.region``, ``pieces.trimmed_passes``).
 
     Parameters
     ----------
@@ -357,12 +365,16 @@ def point_passes_left(walls: list[SwarfWall], overlap_mm: float, end_overlap_mm:
         Length along a pass the kept parts reach into the band, mm (a stepover plus
         a ruling step: the flank leaves up to 0.08 mm within a ruling step inside a
         pass's end rulings, ``swarf_sweep.pass_deviation``).
+    covered : callable, optional
+        ``covered(centre, normal)`` ((k, 3) ball centres and side normals of a pass,
+        mm) -> (k,) bool: the points another operation finishes to the scallop.
 
     Returns
     -------
     PointPassTrim
     """
-    return PointPassTrim({sw.wall.label: sw for sw in walls}, overlap_mm, end_overlap_mm)
+    return PointPassTrim({sw.wall.label: sw for sw in walls}, overlap_mm, end_overlap_mm,
+                         covered)
 
 
 def swarf_check_text(surfaces: ImpellerSurfaces, tool: Tool, options: FinishOptions) -> str:
