@@ -20,7 +20,9 @@
   finishing program, all five axes modelled (``cam.motion.axis_models``): contour
   error per NC line (``contour_<program>.csv``), max / median / RMS per program with the
   machine's K_FFP and with the Best K_FFP, and the contour-error map on the blade
-  (``contour_map.png``, meridional view).
+  (``contour_map.png``, meridional view). The control's corner speeds allow for the
+  drives' smoothing (``corner_smoothing``: the largest Ts of the axes), as a control
+  with acc/dec after interpolation plans them (docs/motion.md 6.2).
 """
 
 from __future__ import annotations
@@ -253,6 +255,9 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
         return {"program": None, "note": "the machine file has no servo data (no "
                 "[axes.<NAME>.servo] table: nothing to model the axes on)"}
     models = machine_axis_models(machine)
+    # the control plans its corner speeds so that its own post-interpolation smoothing
+    # (the drives' Ts) keeps the corners within G64 P, as it does for its blends
+    corner = max(a.ts for a in models.models.values())
     design = _design_distance(ctx)
     programs, tips, errors, tuned_errors = [], [], [], []
     surface_tips, surface_errors = [], []
@@ -260,7 +265,7 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
         program = read_nc(ctx.out / entry["nc"], machine=machine)
         contact = _contact(ctx, entry, program, machine, design)
         report = simulate_program(program, machine, dt=SERVO_DT, models=models,
-                                  contact=contact)
+                                  contact=contact, corner_smoothing=corner)
         feed = program.motion == int(Motion.LINEAR)
         if not feed.any():
             continue
@@ -316,6 +321,7 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
         "program": "all finishing programs",
         "dt_s": SERVO_DT,
         "feed_profile": "lookahead",
+        "corner_smoothing_s": corner,
         "axis_models": models.source,
         "kffp_machine": {a.name: a.k_ffp for a in models.models.values()},
         "max_contour_um": 1000.0 * float(every.max()),
@@ -339,7 +345,8 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
                 "most lagging identified axis of its kind); Best K_FFP per program at "
                 "its characteristic rotary speed; commanded motion: the control's "
                 "look-ahead (path speed continuous, jerk-limited at the axes' limits, "
-                "corners blended within G64 P)",
+                "corners blended within G64 P, their speeds allowing for the drives' "
+                "smoothing corner_smoothing_s)",
     }
     if len(tuned_errors) == len(errors):
         out["max_contour_best_kffp_um"] = 1000.0 * float(np.concatenate(tuned_errors).max())
