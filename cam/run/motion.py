@@ -244,7 +244,11 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
     from cam.motion.axis_models import machine_axis_models
     from cam.motion.blending import blended_program_time
     from cam.motion.plots import plot_contour_map
-    from cam.motion.program_servo import program_joints, simulate_program
+    from cam.motion.program_servo import (
+        corner_smoothing_time,
+        program_joints,
+        simulate_program,
+    )
     from geometry.spec import load_spec
     from postproc.nc_reader import read_nc
     from postproc.program import Motion
@@ -256,9 +260,7 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
         return {"program": None, "note": "the machine file has no servo data (no "
                 "[axes.<NAME>.servo] table: nothing to model the axes on)"}
     models = machine_axis_models(machine)
-    # the control plans its corner speeds so that its own post-interpolation smoothing
-    # (the drives' Ts) keeps the corners within G64 P, as it does for its blends
-    corner = max(a.ts for a in models.models.values())
+    corner = corner_smoothing_time(models.models)
     design = _design_distance(ctx)
     programs, tips, errors, tuned_errors = [], [], [], []
     surface_tips, surface_errors = [], []
