@@ -19,8 +19,16 @@ lead-ins). A CAM system enters along the pass's tangent instead, on a quarter ar
 the rapid clearance (as the escape's points) and whose arc is free as a cut (the
 cutter shrunk by the rules' allowance, shank and holder ``clearance`` away) replaces
 the escape point: the link then ends (or starts) at ``O``. The tool axis is the
-pass's end axis throughout, as on the straight move. Where neither is clear, the
-straight move is kept.
+pass's end axis at the outer point ``O``, as on the straight move; along the arc it
+carries the pass's axis rate out of the pass (``blend_curve`` with ``rate0`` the pass's
+tool-axis change per mm of tip at that end, ``rate1`` zero, both ends the pass's end
+axis). On a table-tilting machine the linear joints carry the part's rotation, so an
+arc whose axis stops turning where it meets the pass leaves a joint-space corner
+there, a corner the control rounds although the tip path is tangent (issue 26: 46-64
+um of predicted contour error on the first blocks of finish_edge's departures, 24 um
+from the blade, about 20 um of it into the part). The axis swings out by at most
+``4 h |rate| / 9`` (``h`` the arc's Bezier reach) and back. Where neither arc is
+clear, the straight move is kept.
 """
 
 from __future__ import annotations
@@ -39,10 +47,12 @@ if TYPE_CHECKING:
     from cam.finishing.linking import Linker, PassEnds
     from cam.finishing.stepover_blend import Stepover
 
-__all__ = ["LEAD_POINTS", "LEAD_REACHES", "tangent_approach", "tangent_departure",
+__all__ = ["LEAD_POINTS", "LEAD_REACHES", "Lead", "tangent_approach", "tangent_departure",
            "tangent_leads"]
 
 Array = NDArray[np.float64]
+#: A lead's postures: tips and unit tool axes, (LEAD_POINTS, 3) each.
+Lead = tuple[Array, Array]
 #: Moves an approach or departure arc is made of (a quarter turn: ~11 degrees each).
 LEAD_POINTS = 8
 #: Arc radii tried, in units of the escape's length.
@@ -56,10 +66,21 @@ def _unit(v: Array) -> Array | None:
     return None if length < 1e-9 else np.asarray(v / length)
 
 
-def _arc(linker: Linker, tip: Array, along: Array, axis: Array, escape: Array
-         ) -> tuple[Array, Array] | None:
-    """The first clear quarter arc from ``tip`` (leaving along ``along``) turning to
-    the escape direction: its end point ``O`` and its tips (``O`` last), or None."""
+def _leaving(tip: Array, axis: Array) -> tuple[Array, Array] | None:
+    """Direction of the chord from ``tip[1]`` to ``tip[0]`` and the tool axis's change
+    per mm along it (1/mm): how a pass leaves its posture 0; None for a zero chord."""
+    chord = tip[0] - tip[1]
+    length = float(np.linalg.norm(chord))
+    if length < 1e-9:
+        return None
+    return np.asarray(chord / length), np.asarray((axis[0] - axis[1]) / length)
+
+
+def _arc(linker: Linker, tip: Array, along: Array, axis: Array, rate: Array,
+         escape: Array) -> tuple[Array, Array, Array] | None:
+    """The first clear quarter arc from ``tip`` (leaving along ``along``, the tool axis
+    turning at ``rate`` per mm of tip) turning to the escape direction: its end point
+    ``O``, its tips and tool axes (``O`` last, with ``axis`` again), or None."""
     d = _unit(escape - tip)
     if d is None:
         return None
@@ -76,16 +97,16 @@ def _arc(linker: Linker, tip: Array, along: Array, axis: Array, escape: Array
                                              clearance_cap=r.clearance)
         if bool(report.blocked(r.clearance)[0]):
             continue
-        arc, _ = blend_curve(tip, along, outer, d, axis, axis, QUARTER * radius,
-                             LEAD_POINTS)
+        arc, axes = blend_curve(tip, along, outer, d, axis, axis, QUARTER * radius,
+                                LEAD_POINTS, rate0=rate, rate1=np.zeros(3))
         path = np.vstack([tip[None], arc])
-        if linker.feed_free(path, np.tile(axis, (len(path), 1))):
-            return outer, arc
+        if linker.feed_free(path, np.vstack([axis[None], axes])):
+            return outer, arc, axes
     return None
 
 
 def tangent_approach(linker: Linker, p: PassEnds, entry: Array
-                     ) -> tuple[Array, Array] | None:
+                     ) -> tuple[Array, Array, Array] | None:
     """The tangent approach into pass ``p`` instead of the straight one from ``entry``.
 
     Parameters
@@ -101,31 +122,34 @@ def tangent_approach(linker: Linker, p: PassEnds, entry: Array
     -------
     start : (3,) float64
         The arc's outer point: the link ends there.
-    tips : (LEAD_POINTS, 3) float64
-        The arc's tips after ``start``, the pass's first tip last.
+    tips, axes : (LEAD_POINTS, 3) float64
+        The arc's tips and unit tool axes after ``start``, the pass's first posture
+        last.
     None
         The pass is too short or no arc is clear (keep the straight move).
     """
     if len(p.tip) < 2:
         return None
-    along = _unit(p.tip[0] - p.tip[1])  # backwards: the arc is built as a departure
-    found = None if along is None else _arc(linker, p.tip[0], along, p.axis[0], entry)
+    leave = _leaving(p.tip, p.axis)  # backwards: the arc is built as a departure
+    found = None if leave is None else _arc(linker, p.tip[0], leave[0], p.axis[0],
+                                            leave[1], entry)
     if found is None:
         return None
-    outer, arc = found
-    return outer, np.vstack([arc[-2::-1], p.tip[:1]])
+    outer, arc, axes = found
+    return outer, np.vstack([arc[-2::-1], p.tip[:1]]), np.vstack([axes[-2::-1], p.axis[:1]])
 
 
 def tangent_departure(linker: Linker, p: PassEnds, exit_point: Array
-                      ) -> tuple[Array, Array] | None:
+                      ) -> tuple[Array, Array, Array] | None:
     """The tangent departure from pass ``p`` instead of the straight one to
-    ``exit_point``: the arc's outer point (the link starts there) and its tips after
-    the pass's last tip, the outer point last; None as ``tangent_approach``."""
+    ``exit_point``: the arc's outer point (the link starts there) and its tips and
+    tool axes after the pass's last posture, the outer point last; None as
+    ``tangent_approach``."""
     if len(p.tip) < 2:
         return None
-    along = _unit(p.tip[-1] - p.tip[-2])
-    return None if along is None else _arc(linker, p.tip[-1], along, p.axis[-1],
-                                           exit_point)
+    leave = _leaving(p.tip[:-3:-1], p.axis[:-3:-1])
+    return None if leave is None else _arc(linker, p.tip[-1], leave[0], p.axis[-1],
+                                           leave[1], exit_point)
 
 
 def tangent_leads(linker: Linker, passes: Sequence[PassEnds],
@@ -133,7 +157,7 @@ def tangent_leads(linker: Linker, passes: Sequence[PassEnds],
                   ends: Sequence[tuple[Array, float] | None],
                   stepover: Sequence[Stepover | None]
                   ) -> tuple[list[tuple[Array, float] | None], list[tuple[Array, float] | None],
-                             tuple[list[Array | None], list[Array | None]]]:
+                             tuple[list[Lead | None], list[Lead | None]]]:
     """The passes' tangent approaches and departures where they are clear.
 
     Parameters
@@ -150,22 +174,22 @@ def tangent_leads(linker: Linker, passes: Sequence[PassEnds],
     -------
     starts, ends : list of ((3,) float64, float) or None
         The entry and exit points, an arc's outer point where it is clear.
-    leads : (list, list) of (LEAD_POINTS, 3) float64 or None
-        Per pass the approach's tips (the pass's first tip last) and the departure's
-        (the exit point last); None: the straight move.
+    leads : (list, list) of ((LEAD_POINTS, 3), (LEAD_POINTS, 3)) float64 or None
+        Per pass the approach's tips and tool axes (the pass's first posture last) and
+        the departure's (the exit point last); None: the straight move.
     """
     last = len(passes) - 1
     new_starts, new_ends = list(starts), list(ends)
-    approaches: list[Array | None] = [None] * len(passes)
-    departures: list[Array | None] = [None] * len(passes)
+    approaches: list[Lead | None] = [None] * len(passes)
+    departures: list[Lead | None] = [None] * len(passes)
     for k, p in enumerate(passes):
         start, end = starts[k], ends[k]
         if start is not None and not (k and stepover[k - 1] is not None):
             found = tangent_approach(linker, p, start[0])
             if found is not None:
-                new_starts[k], approaches[k] = (found[0], start[1]), found[1]
+                new_starts[k], approaches[k] = (found[0], start[1]), (found[1], found[2])
         if end is not None and not (k < last and stepover[k] is not None):
             found = tangent_departure(linker, p, end[0])
             if found is not None:
-                new_ends[k], departures[k] = (found[0], end[1]), found[1]
+                new_ends[k], departures[k] = (found[0], end[1]), (found[1], found[2])
     return new_starts, new_ends, (approaches, departures)

@@ -45,7 +45,7 @@ from numpy.typing import NDArray
 
 from cam.finishing.axial_moves import AxialMove, axial_moves
 from cam.finishing.envelope import Envelope, retract_length, stepped_link
-from cam.finishing.lead_blend import tangent_leads
+from cam.finishing.lead_blend import Lead, tangent_leads
 from cam.finishing.stepover_blend import Stepover, feed_stepover
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
 from postproc.kinematics.base import OverTravelError
@@ -337,11 +337,11 @@ class Linker:
     def _build(self, passes: Sequence[PassEnds], starts: list[tuple[Array, float] | None],
                ends: list[tuple[Array, float] | None], stepover: list[Stepover | None],
                floor: dict[int, int],
-               leads: tuple[list[Array | None], list[Array | None]] = ([], [])
+               leads: tuple[list[Lead | None], list[Lead | None]] = ([], [])
                ) -> tuple[_Moves, list[bool], list[dict[str, Any]], dict[int, int]]:
         """The operation's poses; ``stepover[k]``: pass k goes on into pass k + 1 at
         feed; ``floor[k]``: lowest kind index for link k; ``leads``: per pass the
-        tangent approach's and departure's tips (``lead_blend``; None: straight)."""
+        tangent approach's and departure's postures (``lead_blend``; None: straight)."""
         r = self.rules
         moves = _Moves()
         air: list[bool] = []
@@ -398,8 +398,7 @@ class Linker:
                 add(step.tip[:-1], step.axis[:-1], MoveKind.PLUNGE, r.feed, False, True)
             curve = leads[0][index] if step is None and leads[0] else None
             if curve is not None:  # the tangent approach up to the pass's start
-                add(curve[:-1], np.tile(p.axis[0], (len(curve) - 1, 1)), MoveKind.PLUNGE,
-                    r.feed, False, True)
+                add(curve[0][:-1], curve[1][:-1], MoveKind.PLUNGE, r.feed, False, True)
             add(p.tip[0], p.axis[0], MoveKind.PLUNGE,
                 r.feed if start is not None or step is not None else half, False, True)
             add(p.tip[1:], p.axis[1:], MoveKind.FEED, r.feed, False, False)
@@ -412,8 +411,7 @@ class Linker:
                 exit_point = (end[0], p.axis[-1], p.joints_end, end[1])
                 curve = leads[1][index] if leads[1] else None
                 if curve is not None:  # the tangent departure up to its end
-                    add(curve[:-1], np.tile(p.axis[-1], (len(curve) - 1, 1)),
-                        MoveKind.RETRACT, r.feed, False, True)
+                    add(curve[0][:-1], curve[1][:-1], MoveKind.RETRACT, r.feed, False, True)
                 add(end[0], p.axis[-1], MoveKind.RETRACT, r.feed, False, True)
             else:
                 out = p.tip[-1] + retract_length(p.tip[-1:], p.axis[-1:], r.envelope,

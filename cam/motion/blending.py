@@ -294,7 +294,7 @@ def plan_speeds(delta: Array, velocity: Array, acceleration: Array, jerk: Array,
 
 def blended_times(delta: Array, velocity: Array, acceleration: Array, jerk: Array,
                   rotary: NDArray[np.bool_], rate_bound: Array,
-                  tolerance: float = DEFAULT_TOLERANCE_MM) -> Array:
+                  tolerance: float = DEFAULT_TOLERANCE_MM, smoothing: float = 0.0) -> Array:
     """Blended time of consecutive straight joint moves starting and ending at rest.
 
     Parameters
@@ -309,6 +309,8 @@ def blended_times(delta: Array, velocity: Array, acceleration: Array, jerk: Arra
         Bound on the block parameter's rate ``ds/dt`` (the feed; ``inf`` for none), 1/s.
     tolerance : float
         Path tolerance ``P`` (``G64 P``), mm; rotary joints: degrees.
+    smoothing : float
+        Post-interpolation smoothing the corner speeds allow for, s (``plan_speeds``).
 
     Returns
     -------
@@ -316,7 +318,8 @@ def blended_times(delta: Array, velocity: Array, acceleration: Array, jerk: Arra
         Time per block, s; 0 for blocks that do not move.
     """
     out = np.zeros(len(delta))
-    plan = plan_speeds(delta, velocity, acceleration, jerk, rotary, rate_bound, tolerance)
+    plan = plan_speeds(delta, velocity, acceleration, jerk, rotary, rate_bound, tolerance,
+                       smoothing)
     if plan is None:
         return out
     share = plan.length / plan.seg_length[plan.segment]
@@ -326,7 +329,8 @@ def blended_times(delta: Array, velocity: Array, acceleration: Array, jerk: Arra
 
 def blended_program_time(program: MachineProgram, machine: Machine,
                          joints: Array | None = None,
-                         tolerance: float = DEFAULT_TOLERANCE_MM) -> BlendedTime:
+                         tolerance: float = DEFAULT_TOLERANCE_MM,
+                         smoothing: float = 0.0) -> BlendedTime:
     """Blended times of every block of a joint-space program (from rest to rest).
 
     Parameters
@@ -337,6 +341,8 @@ def blended_program_time(program: MachineProgram, machine: Machine,
         Joint targets instead of ``program.joints`` (TCP blocks mapped to joints).
     tolerance : float
         ``G64 P``, mm.
+    smoothing : float
+        Post-interpolation smoothing the corner speeds allow for, s (``plan_speeds``).
 
     Returns
     -------
@@ -350,5 +356,5 @@ def blended_program_time(program: MachineProgram, machine: Machine,
     delta = np.where(np.isfinite(delta), delta, 0.0)
     rotary = rotary_mask(machine)
     bound = path_rate_bound(program, delta, rotary)
-    return BlendedTime(blended_times(delta, vel, acc, jerk, rotary, bound, tolerance),
-                       tolerance)
+    return BlendedTime(blended_times(delta, vel, acc, jerk, rotary, bound, tolerance,
+                                     smoothing), tolerance)

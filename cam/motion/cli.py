@@ -223,10 +223,13 @@ def servo_command(
                          for n in lin)
         lines.append(f"omega {row['omega_rad_s']:7.3f} rad/s: Best K_FFP {best}")
     if program is not None:
-        from cam.motion.program_servo import simulate_program
+        from cam.motion.axis_models import machine_axis_models
+        from cam.motion.program_servo import corner_smoothing_time, simulate_program
         from postproc.nc_reader import read_nc
 
-        report = simulate_program(read_nc(program, machine=mach), mach)
+        models = machine_axis_models(mach)
+        report = simulate_program(read_nc(program, machine=mach), mach, models=models,
+                                  corner_smoothing=corner_smoothing_time(models.models))
         data["program"] = report.as_dict()
         lines.append(f"program: max contour error "
                      f"{data['program']['max_contour_error_mm']:.4f} mm at line "

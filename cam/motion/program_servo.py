@@ -62,6 +62,7 @@ if TYPE_CHECKING:
 
 __all__ = ["FEED_PROFILES", "MAX_SAMPLES", "PIECE_SAMPLES", "PROGRAM_DT", "ServoReport",
            "characteristic_omega", "commanded_durations", "commanded_motion",
+           "corner_smoothing_time",
            "program_joints", "rapid_profiles", "recommend_kffp", "settle_time",
            "simulate_program"]
 
@@ -99,6 +100,16 @@ def program_joints(program: MachineProgram, machine: Machine) -> NDArray[np.floa
                                             kins.rot_point, kins.offset, kins.tilt_about,
                                             kins.sign)
     return joints
+
+
+def corner_smoothing_time(models: dict[int, FeedDriveAxis]) -> float:
+    """Post-interpolation smoothing the control's corner speeds allow for, s.
+
+    The largest ``Ts`` of the axes: a control with acc/dec after interpolation slows
+    at corners so that its filter keeps them within ``G64 P`` (docs/motion.md 6.2;
+    ``simulate_program``'s ``corner_smoothing``).
+    """
+    return max([a.ts for a in models.values()], default=0.0)
 
 
 def settle_time(models: dict[int, FeedDriveAxis]) -> float:

@@ -20,7 +20,9 @@
   finishing program, all five axes modelled (``cam.motion.axis_models``): contour
   error per NC line (``contour_<program>.csv``), max / median / RMS per program with the
   machine's K_FFP and with the Best K_FFP, and the contour-error map on the blade
-  (``contour_map.png``, meridional view).
+  (``contour_map.png``, meridional view). The control's corner speeds allow for the
+  drives' smoothing (``corner_smoothing``: the largest Ts of the axes), as a control
+  with acc/dec after interpolation plans them (docs/motion.md 6.2).
 """
 
 from __future__ import annotations
@@ -240,8 +242,13 @@ def _surface_row(report: Any, contact: Any, feed: NDArray[np.bool_]) -> dict[str
 def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
     """Contour error of every finishing program, all five axes modelled (issue 26)."""
     from cam.motion.axis_models import machine_axis_models
+    from cam.motion.blending import blended_program_time
     from cam.motion.plots import plot_contour_map
-    from cam.motion.program_servo import simulate_program
+    from cam.motion.program_servo import (
+        corner_smoothing_time,
+        program_joints,
+        simulate_program,
+    )
     from geometry.spec import load_spec
     from postproc.nc_reader import read_nc
     from postproc.program import Motion
@@ -253,6 +260,7 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
         return {"program": None, "note": "the machine file has no servo data (no "
                 "[axes.<NAME>.servo] table: nothing to model the axes on)"}
     models = machine_axis_models(machine)
+    corner = corner_smoothing_time(models.models)
     design = _design_distance(ctx)
     programs, tips, errors, tuned_errors = [], [], [], []
     surface_tips, surface_errors = [], []
@@ -260,7 +268,7 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
         program = read_nc(ctx.out / entry["nc"], machine=machine)
         contact = _contact(ctx, entry, program, machine, design)
         report = simulate_program(program, machine, dt=SERVO_DT, models=models,
-                                  contact=contact)
+                                  contact=contact, corner_smoothing=corner)
         feed = program.motion == int(Motion.LINEAR)
         if not feed.any():
             continue
@@ -279,6 +287,10 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
             "kffp_best": report.recommended_kffp,
             "saturated_in_feed": [a for a, hit in report.saturated.items() if hit],
             "per_line": csv_name,
+            # the look-ahead's time with the slower corners (cycle_time_s without them)
+            "cycle_time_smoothed_corners_s": float(blended_program_time(
+                program, machine, program_joints(program, machine),
+                smoothing=corner).time.sum()),
         }
         tuned_axis = report.tool_axis_recommended
         if tuned is not None and tuned_axis is not None:
@@ -316,6 +328,7 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
         "program": "all finishing programs",
         "dt_s": SERVO_DT,
         "feed_profile": "lookahead",
+        "corner_smoothing_s": corner,
         "axis_models": models.source,
         "kffp_machine": {a.name: a.k_ffp for a in models.models.values()},
         "max_contour_um": 1000.0 * float(every.max()),
@@ -339,7 +352,8 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
                 "most lagging identified axis of its kind); Best K_FFP per program at "
                 "its characteristic rotary speed; commanded motion: the control's "
                 "look-ahead (path speed continuous, jerk-limited at the axes' limits, "
-                "corners blended within G64 P)",
+                "corners blended within G64 P, their speeds allowing for the drives' "
+                "smoothing corner_smoothing_s)",
     }
     if len(tuned_errors) == len(errors):
         out["max_contour_best_kffp_um"] = 1000.0 * float(np.concatenate(tuned_errors).max())

@@ -83,18 +83,22 @@ def test_a_blended_stepover_halves_the_contour_error_of_the_zigzag_corner() -> N
     """The predicted contour error (all five axes' feed drives, look-ahead) over the
     stepover: a straight stepover's two 90-degree corners, where the control slows to
     nearly rest and turns at the axes' full acceleration, against the blend's gentle
-    U-turn at the same feed. Both programs cut the same passes."""
+    U-turn at the same feed. Both programs cut the same passes. The control plans its
+    corner speeds allowing for the drives' 64 ms smoothing, as the chain's motion stage
+    does (without it the smoothing cuts the blend's tight U-turn at speed, 244 um,
+    deeper than the stop at the corner, 164 um)."""
     worst = {}
     for blend in (False, True):
         program = _zigzag(blend)
-        report = simulate_program(program, MACHINE, dt=1e-3, recommend=False)
+        report = simulate_program(program, MACHINE, dt=1e-3, recommend=False,
+                                  corner_smoothing=0.064)
         feed = program.motion == Motion.LINEAR
         # the stepover region: from the first pass's last block to the second's first
         lines = program.line[feed]
         turn = slice(int(np.flatnonzero(lines == 4 + 9)[0]),
                      int(np.flatnonzero(lines == 4 + 11 + (BLEND_POINTS - 1) * blend)[0]) + 1)
         worst[blend] = float(report.deviation[feed][turn].max())
-    assert worst[False] > 0.1  # the sharp corner: over 100 um
+    assert worst[False] > 0.04  # the sharp corner: 55 um
     assert worst[True] < 0.6 * worst[False]
 
 

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 
+from cam.finishing.lead_blend import LEAD_POINTS
 from cam.verify.command import VerifyOptions, run_verify
 from tests.cam.conftest import CHAIN_MACHINE, CHAIN_SETTINGS
 
@@ -28,9 +29,23 @@ Z_WORD = re.compile(r"Z(-?\d+(?:\.\d*)?)")
 
 
 def cutting_lines(lines: list[str]) -> list[int]:
-    """Indices of inverse-time cutting blocks with all five coordinates."""
-    return [i for i, line in enumerate(lines)
+    """Indices of inverse-time cutting blocks with all five coordinates, inside a pass.
+
+    The tangent leads (``lead_blend``, ``LEAD_POINTS`` blocks) turn the tool axis at
+    the pass's rate, so they too are five-coordinate inverse-time blocks, contiguous
+    with their pass but in the air: the first and last ``LEAD_POINTS + 1`` blocks of
+    every run of such blocks are left out.
+    """
+    five = [i for i, line in enumerate(lines)
             if line.startswith("X") and all(f" {w}" in line for w in "ZACF")]
+    runs: list[list[int]] = []
+    for i in five:
+        if runs and i == runs[-1][-1] + 1:
+            runs[-1].append(i)
+        else:
+            runs.append([i])
+    edge = LEAD_POINTS + 1
+    return [i for run in runs for i in run[edge:len(run) - edge]]
 
 
 def z_of(line: str) -> float:
