@@ -70,7 +70,8 @@ def time_breakdown(program: MachineProgram, machine: Machine,
                    joints: NDArray[np.float64] | None = None,
                    kinds: NDArray[np.int8] | None = None,
                    air_kinds: tuple[MoveKind, ...] = AIR_KINDS["finish"],
-                   tolerance: float = DEFAULT_TOLERANCE_MM) -> dict[str, Any]:
+                   tolerance: float = DEFAULT_TOLERANCE_MM,
+                   smoothing: float = 0.0) -> dict[str, Any]:
     """Times of a program by class of block, s.
 
     Parameters
@@ -85,15 +86,19 @@ def time_breakdown(program: MachineProgram, machine: Machine,
         Feed kinds that are approaches or departures.
     tolerance : float
         Path tolerance of the blending (``G64 P``), mm.
+    smoothing : float
+        Post-interpolation smoothing the corner speeds allow for, s
+        (``program_servo.machine_corner_smoothing``; 0: none).
 
     Returns
     -------
     dict
         ``cycle_time_s`` (blended), ``exact_stop_s``, ``nominal_s``, ``cutting_s``,
         ``air_s`` (= ``rapid_s`` + ``approach_departure_s``), ``rotary_link_s``,
-        ``air_share``, block counts and ``blend_tolerance_mm``.
+        ``air_share``, block counts, ``blend_tolerance_mm`` and
+        ``corner_smoothing_s``.
     """
-    blended = blended_program_time(program, machine, joints, tolerance)
+    blended = blended_program_time(program, machine, joints, tolerance, smoothing)
     exact = program_cycle_time(program, machine, joints)
     targets = program.joints if joints is None else joints
     path = np.vstack([program.start[None, :], targets])
@@ -123,6 +128,7 @@ def time_breakdown(program: MachineProgram, machine: Machine,
         "rotary_link_blocks": int(link.sum()),
         "air_feed_source": "none" if kinds is None else "apt",
         "blend_tolerance_mm": tolerance,
+        "corner_smoothing_s": smoothing,
     }
 
 
@@ -139,14 +145,18 @@ def program_file_times(nc: str | Path, apt: str | Path | None, machine: Machine,
         The APT file it was posted from (default post options), if known.
     operation : str
         ``"finish"`` or ``"rough"`` (``AIR_KINDS``).
+
+    The corners allow for the drives' smoothing when the machine has servo data
+    (``program_servo.machine_corner_smoothing``), as the contour-error prediction does.
     """
-    from cam.motion.program_servo import program_joints
+    from cam.motion.program_servo import machine_corner_smoothing, program_joints
     from postproc.nc_reader import read_nc
 
     program = read_nc(nc, machine=machine)
     kinds = None if apt is None or not Path(apt).is_file() else \
         block_kinds(apt, machine, len(program))
     out = time_breakdown(program, machine, program_joints(program, machine), kinds,
-                         AIR_KINDS.get(operation, AIR_KINDS["finish"]), tolerance)
+                         AIR_KINDS.get(operation, AIR_KINDS["finish"]), tolerance,
+                         machine_corner_smoothing(machine))
     out["blocks"] = len(program)
     return out

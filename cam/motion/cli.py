@@ -247,7 +247,7 @@ def time_command(
     """Cycle time of an NC program under the machine's velocity/acceleration/jerk limits."""
     from cam.motion.blending import blended_program_time
     from cam.motion.cycle_time import format_seconds, program_cycle_time
-    from cam.motion.program_servo import program_joints
+    from cam.motion.program_servo import machine_corner_smoothing, program_joints
     from postproc.machine import load_machine
     from postproc.nc_reader import read_nc
 
@@ -255,7 +255,8 @@ def time_command(
     prog = read_nc(program, machine=mach)
     joints = program_joints(prog, mach)
     times = program_cycle_time(prog, mach, joints)
-    blended = blended_program_time(prog, mach, joints)
+    blended = blended_program_time(prog, mach, joints,
+                                   smoothing=machine_corner_smoothing(mach))
     data = times.as_dict()
     data["program"] = str(program)
     data["blended_time_s"] = blended.total

@@ -63,6 +63,7 @@ if TYPE_CHECKING:
 __all__ = ["FEED_PROFILES", "MAX_SAMPLES", "PIECE_SAMPLES", "PROGRAM_DT", "ServoReport",
            "characteristic_omega", "commanded_durations", "commanded_motion",
            "corner_smoothing_time",
+           "machine_corner_smoothing",
            "program_joints", "rapid_profiles", "recommend_kffp", "settle_time",
            "simulate_program"]
 
@@ -110,6 +111,20 @@ def corner_smoothing_time(models: dict[int, FeedDriveAxis]) -> float:
     ``simulate_program``'s ``corner_smoothing``).
     """
     return max([a.ts for a in models.values()], default=0.0)
+
+
+def machine_corner_smoothing(machine: Machine) -> float:
+    """``corner_smoothing_time`` of ``machine``'s axis models, s; 0 without servo data.
+
+    The cycle-time model (``cam.motion.breakdown``) and the servo prediction plan the
+    look-ahead's corners with this one value, so the time reported is the time of the
+    motion whose contour error is predicted.
+    """
+    from cam.motion.axis_models import machine_axis_models
+
+    if not any(spec.servo for spec in machine.axes.values()):
+        return 0.0
+    return corner_smoothing_time(machine_axis_models(machine).models)
 
 
 def settle_time(models: dict[int, FeedDriveAxis]) -> float:

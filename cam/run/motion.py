@@ -242,11 +242,9 @@ def _surface_row(report: Any, contact: Any, feed: NDArray[np.bool_]) -> dict[str
 def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
     """Contour error of every finishing program, all five axes modelled (issue 26)."""
     from cam.motion.axis_models import machine_axis_models
-    from cam.motion.blending import blended_program_time
     from cam.motion.plots import plot_contour_map
     from cam.motion.program_servo import (
         corner_smoothing_time,
-        program_joints,
         simulate_program,
     )
     from geometry.spec import load_spec
@@ -287,10 +285,6 @@ def _servo(ctx: Context, machine: Any, stage: Path) -> dict[str, Any]:
             "kffp_best": report.recommended_kffp,
             "saturated_in_feed": [a for a, hit in report.saturated.items() if hit],
             "per_line": csv_name,
-            # the look-ahead's time with the slower corners (cycle_time_s without them)
-            "cycle_time_smoothed_corners_s": float(blended_program_time(
-                program, machine, program_joints(program, machine),
-                smoothing=corner).time.sum()),
         }
         tuned_axis = report.tool_axis_recommended
         if tuned is not None and tuned_axis is not None:
