@@ -9,7 +9,10 @@ take 39 s of a core on a cold cache, 6 s on a warm one). ``scripts/test`` runs t
 module while mypy runs (mypy uses one core), so the tests start with the chain's
 kernels compiled once: ``cam.run.warm`` (the small fixture's chain, one passage, the
 chain test's coarse settings, every stage that calls kernels, on the tests' machine:
-trunnion-500 without its model, ``tests.cam.conftest.CHAIN_MACHINE``).
+trunnion-500 without its model, ``tests.cam.conftest.CHAIN_MACHINE``; then the finish
+stage's reach check on trunnion-500 with its model, which compiles the machine model's
+clearance bounds, and a dexel pool's growth). docs/testing.md: checking that a new
+kernel is covered.
 
 Usage: ``python -m tests.warm_kernels`` (prints the seconds it took).
 """

@@ -10,6 +10,13 @@ at coarse settings, through every stage that calls kernels, into a temporary fol
 so that the later stages of the real run find their kernels compiled. The test
 script does the same beside mypy (``tests/warm_kernels.py``).
 
+The chain runs on the machine without its ``[model]`` (``without_model``); two steps
+then reach the kernels it does not: the finish stage on the machine with its model
+(its reach check compiles the model's clearance bounds, ``cam.verify.machine_bounds``,
+whether or not the part clears the model: the small part is refused on trunnion-500
+before planning, exit 2, which is expected here), and the growth of a dexel pool
+(``cam.verify.dexel``'s compaction, run when a sweep overflows its pool).
+
 Usage: ``python -m cam.run.warm [MACHINE.toml]`` (default trunnion-500); prints the
 seconds it took, or why it did nothing.
 """
@@ -23,7 +30,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-__all__ = ["SMALL_SPEC", "STAGES", "WARM_SETTINGS", "warm", "without_model"]
+__all__ = ["SMALL_SPEC", "STAGES", "WARM_SETTINGS", "warm", "warm_dexel_growth",
+           "warm_machine_model", "without_model"]
 
 ROOT = Path(__file__).resolve().parents[2]
 #: The smallest bundled design (a checkout's fixtures; absent from a wheel install).
@@ -86,6 +94,36 @@ def warm(out: Path, machine: Path = TRUNNION, spec: Path = SMALL_SPEC) -> None:
     bare = without_model(machine)
     for stage in STAGES:
         run_chain(spec, bare, out, only=stage, progress=False, **WARM_SETTINGS)
+    if bare.read_text() != machine.read_text():
+        warm_machine_model(out, machine, spec)
+    warm_dexel_growth()
+
+
+def warm_machine_model(out: Path, machine: Path, spec: Path = SMALL_SPEC) -> None:
+    """The finish stage of the warm-up chain in ``out`` again, on ``machine`` with its
+    ``[model]``: its reach check compiles the model's clearance bounds. A refusal (bad
+    input, exit 2: the part cannot clear the model) is expected and ignored."""
+    from cam.run import run_chain
+    from impeller_cam.errors import InputError
+
+    try:
+        run_chain(spec, machine, out, only="finish", progress=False, **WARM_SETTINGS)
+    except InputError:
+        pass
+
+
+def warm_dexel_growth() -> Any:
+    """Grow a one-interval dexel grid: compiles the pool's compaction (a sweep runs it
+    only when its pool overflows). Returns the grid (``DexelGrid``: a 1 x 1 mm cell
+    holding material from 0 to 1 mm)."""
+    import numpy as np
+
+    from cam.verify.dexel import DexelGrid
+
+    grid = DexelGrid.from_intervals(2, np.zeros(2), (1, 1), 1.0, np.zeros(1, np.int64),
+                                    np.zeros(1), np.ones(1))
+    grid.grow()
+    return grid
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -20,3 +20,11 @@ def test_a_missing_machine_is_reported_and_nothing_runs(tmp_path: Path,
 def test_the_warm_up_spec_and_machine_are_the_checkouts() -> None:
     assert warm.SMALL_SPEC.is_file() and warm.TRUNNION.is_file()
     assert warm.STAGES[0] == "geometry" and "report" not in warm.STAGES
+
+
+def test_the_dexel_growth_step_compacts_a_grid() -> None:
+    """The warm-up's pool growth keeps the grid's one interval (1 mm^3) in a larger
+    pool."""
+    grid = warm.warm_dexel_growth()
+    assert grid.volume() == pytest.approx(1.0, abs=1e-12)
+    assert len(grid.lo) >= 1024 and int(grid.used[0]) >= 1
