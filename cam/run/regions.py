@@ -438,7 +438,7 @@ def region_summary(design: LabelledDesign, stock: str | Path | Deviation, allowa
         if isinstance(stock, Deviation):
             points, moves = stock.points, stock.moves
         else:
-            points, _, moves = Stock.load(Path(stock)).surface_samples()
+            points, moves = Stock.load(Path(stock)).surface_points()
         signed, faces = design.distance.closest(points)
         stock = Deviation(points, signed, moves, faces)
     assert stock.faces is not None

@@ -279,6 +279,24 @@ class Stock:
         """
         return float(np.mean([g.volume() for g in self.grids]))
 
+    def surface_points(self) -> tuple[NDArray[np.float64], NDArray[np.int32]]:
+        """``surface_samples`` without the normals: the points and move ids of all the
+        interval ends, written once into arrays of their final size.
+
+        Returns
+        -------
+        points : (n, 3) float64
+            mm, in ``surface_samples`` order with the same values.
+        moves : (n,) int32
+        """
+        total = sum(g.n_ends() for g in self.grids)
+        points = np.empty((total, 3))
+        moves = np.empty(total, np.int32)
+        offset = 0
+        for grid in self.grids:
+            offset += grid.fill_ends(points, moves, offset)
+        return points, moves
+
     def surface_samples(
         self,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int32]]:
