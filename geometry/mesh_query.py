@@ -183,12 +183,21 @@ def closest_of_candidates(points, candidates, triangles, normals, tie):  # type:
     return out, pick
 
 
+#: Segments a bounding box of ``closest_on_polyline`` covers.
+_RUN = 8
+
+
 @njit(cache=True, parallel=True)
 def closest_on_polyline(points, polyline):  # type: ignore[no-untyped-def]
     """Closest point of a plane polyline to each point: position, distance and side.
 
     The closest segment is the first one of least distance (in polyline order); on it
-    the foot is the projection clamped to the segment.
+    the foot is the projection clamped to the segment. The segments are taken in runs
+    of ``_RUN``: a run whose bounding box lies farther from the point than the best
+    distance so far (by more than a round-off slack) is skipped, as none of its
+    segments could be picked; the others are scanned as before, so the answers are
+    those of the scan over every segment, bit for bit (nine_blade's hub contour:
+    about 10x fewer segments a point).
 
     Parameters
     ----------
@@ -220,6 +229,17 @@ def closest_on_polyline(points, polyline):  # type: ignore[no-untyped-def]
         length2[s] = ex[s] * ex[s] + ey[s] * ey[s]
         start[s] = run
         run += math.sqrt(length2[s])
+    runs = (k + _RUN - 1) // _RUN
+    box = np.empty((runs, 4))  # per run of segments: x min, x max, y min, y max
+    for g in range(runs):
+        last = min(k, (g + 1) * _RUN)
+        box[g, 0] = box[g, 1] = polyline[g * _RUN, 0]
+        box[g, 2] = box[g, 3] = polyline[g * _RUN, 1]
+        for v in range(g * _RUN + 1, last + 1):
+            box[g, 0] = min(box[g, 0], polyline[v, 0])
+            box[g, 1] = max(box[g, 1], polyline[v, 0])
+            box[g, 2] = min(box[g, 2], polyline[v, 1])
+            box[g, 3] = max(box[g, 3], polyline[v, 1])
     n = points.shape[0]
     position = np.empty(n)
     distance = np.empty(n)
@@ -231,13 +251,19 @@ def closest_on_polyline(points, polyline):  # type: ignore[no-untyped-def]
         best_t = 0.0
         best_rx = 0.0
         best_ry = 0.0
-        for s in range(k):
-            wx, wy = px - polyline[s, 0], py - polyline[s, 1]
-            t = min(max((wx * ex[s] + wy * ey[s]) / length2[s], 0.0), 1.0)
-            rx, ry = wx - t * ex[s], wy - t * ey[s]
-            d = math.sqrt(rx * rx + ry * ry)
-            if d < best:
-                best, best_s, best_t, best_rx, best_ry = d, s, t, rx, ry
+        for g in range(runs):
+            # every segment of the run is at least as far as its box (up to round-off)
+            bx = max(box[g, 0] - px, 0.0, px - box[g, 1])
+            by = max(box[g, 2] - py, 0.0, py - box[g, 3])
+            if math.sqrt(bx * bx + by * by) * (1.0 - 1e-9) - 1e-9 > best:
+                continue
+            for s in range(g * _RUN, min(k, (g + 1) * _RUN)):
+                wx, wy = px - polyline[s, 0], py - polyline[s, 1]
+                t = min(max((wx * ex[s] + wy * ey[s]) / length2[s], 0.0), 1.0)
+                rx, ry = wx - t * ex[s], wy - t * ey[s]
+                d = math.sqrt(rx * rx + ry * ry)
+                if d < best:
+                    best, best_s, best_t, best_rx, best_ry = d, s, t, rx, ry
         position[i] = start[best_s] + best_t * math.sqrt(length2[best_s])
         distance[i] = best
         cross[i] = ex[best_s] * best_ry - ey[best_s] * best_rx
