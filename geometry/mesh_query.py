@@ -196,8 +196,8 @@ def closest_on_polyline(points, polyline):  # type: ignore[no-untyped-def]
     of ``_RUN``: a run whose bounding box lies farther from the point than the best
     distance so far (by more than a round-off slack) is skipped, as none of its
     segments could be picked; the others are scanned as before, so the answers are
-    those of the scan over every segment, bit for bit (nine_blade's hub contour:
-    about 10x fewer segments a point).
+    those of the scan over every segment, bit for bit (nine_blade's 41-vertex
+    contours, 2 M points around them: 142-152 -> 122-136 ns of CPU a point).
 
     Parameters
     ----------
