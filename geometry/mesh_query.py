@@ -23,7 +23,7 @@ from numba import njit, prange
 from numpy.typing import NDArray
 
 __all__ = ["closest_of_candidates", "closest_on_polyline", "closest_point_on_triangle",
-           "closest_points", "polyline_projection"]
+           "closest_points", "polyline_projection", "possibly_within"]
 
 
 @njit(cache=True, inline="always")
@@ -289,3 +289,56 @@ def polyline_projection(points: NDArray[np.float64], polyline: NDArray[np.float6
         raise ValueError(f"a polyline needs two vertices, not {len(line)}")
     position, distance, cross = closest_on_polyline(p, line)
     return np.asarray(position), np.asarray(distance), np.asarray(cross)
+
+
+#: Most cubes ``possibly_within`` lays out.
+_MAX_CELLS = 1 << 24
+
+
+@njit(cache=True)
+def possibly_within(centres, points, bound):  # type: ignore[no-untyped-def]
+    """Whether each point may lie within ``bound`` of one of ``centres`` (a cell test).
+
+    Space is cut into cubes a little larger than ``bound``; a point is flagged when its
+    cube is one of the 27 around a cube holding a centre. A point within ``bound`` of
+    a centre differs from it by at most ``bound`` on every axis, so its cube is at
+    most one away and it is flagged: an unflagged point is farther than ``bound``
+    from every centre (a flagged one may be too; ask a nearest-neighbour query).
+
+    Parameters
+    ----------
+    centres : (m, 3) float64
+        mm, m >= 1.
+    points : (n, 3) float64
+        mm.
+    bound : float
+        mm, > 0.
+
+    Returns
+    -------
+    (n,) bool
+    """
+    cell = bound * 1.001 + 1e-6  # |dx| <= bound stays within one cube after rounding
+    lo = np.empty(3)
+    size = np.empty(3, np.int64)
+    while True:  # larger cubes (still > bound) when there would be too many
+        for c in range(3):
+            lo[c] = centres[:, c].min() - 2.0 * cell
+            size[c] = int((centres[:, c].max() - lo[c]) / cell) + 3
+        if size[0] * size[1] * size[2] <= _MAX_CELLS:
+            break
+        cell *= 2.0
+    near = np.zeros((size[0], size[1], size[2]), np.bool_)
+    for m in range(centres.shape[0]):
+        i = int((centres[m, 0] - lo[0]) / cell)
+        j = int((centres[m, 1] - lo[1]) / cell)
+        k = int((centres[m, 2] - lo[2]) / cell)
+        near[i - 1:i + 2, j - 1:j + 2, k - 1:k + 2] = True
+    out = np.zeros(points.shape[0], np.bool_)
+    for n in range(points.shape[0]):
+        x = (points[n, 0] - lo[0]) / cell
+        y = (points[n, 1] - lo[1]) / cell
+        z = (points[n, 2] - lo[2]) / cell
+        if 0.0 <= x < size[0] and 0.0 <= y < size[1] and 0.0 <= z < size[2]:
+            out[n] = near[int(x), int(y), int(z)]
+    return out

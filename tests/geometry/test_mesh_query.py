@@ -167,3 +167,30 @@ def test_polyline_projection_is_the_full_scan_bit_for_bit(seed: int) -> None:
         got = polyline_projection(points, line)
         for a, b in zip(got, _polyline_scan(points, line), strict=True):
             assert np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_possibly_within_flags_every_point_within_the_bound(seed: int) -> None:
+    """A point within the bound of a centre is always flagged (points placed at
+    exactly the bound on an axis and on a diagonal too); the bounded nearest search
+    over the flagged points alone gives the answers of the search over all of them."""
+    from scipy.spatial import cKDTree
+
+    from geometry.mesh_query import possibly_within
+
+    rng = np.random.default_rng(seed)
+    centres = rng.normal(size=(200, 3)) * [20.0, 20.0, 5.0]
+    bound = float(rng.uniform(0.5, 4.0))
+    offsets = np.vstack([rng.normal(size=(3000, 3)) * bound,
+                         np.eye(3) * bound, -np.eye(3) * bound,
+                         np.ones((1, 3)) * bound / math.sqrt(3.0)])
+    points = np.vstack([centres[rng.integers(0, 200, len(offsets))] + offsets,
+                        rng.uniform(-80.0, 80.0, size=(5000, 3))])
+    flagged = possibly_within(centres, points, bound)
+    nearest, _ = cKDTree(centres).query(points, k=1)
+    assert flagged[nearest <= bound].all()
+    assert (~flagged).sum() > 1000
+    tree = cKDTree(centres)
+    every, _ = tree.query(points, k=1, distance_upper_bound=bound)
+    some, _ = tree.query(points[flagged], k=1, distance_upper_bound=bound)
+    assert np.array_equal(every[flagged], some) and np.isinf(every[~flagged]).all()
