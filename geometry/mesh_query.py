@@ -23,7 +23,7 @@ from numba import njit, prange
 from numpy.typing import NDArray
 
 __all__ = ["closest_of_candidates", "closest_on_polyline", "closest_point_on_triangle",
-           "closest_points", "polyline_projection"]
+           "closest_points", "polyline_projection", "possibly_within"]
 
 
 @njit(cache=True, inline="always")
@@ -183,12 +183,21 @@ def closest_of_candidates(points, candidates, triangles, normals, tie):  # type:
     return out, pick
 
 
+#: Segments a bounding box of ``closest_on_polyline`` covers.
+_RUN = 8
+
+
 @njit(cache=True, parallel=True)
 def closest_on_polyline(points, polyline):  # type: ignore[no-untyped-def]
     """Closest point of a plane polyline to each point: position, distance and side.
 
     The closest segment is the first one of least distance (in polyline order); on it
-    the foot is the projection clamped to the segment.
+    the foot is the projection clamped to the segment. The segments are taken in runs
+    of ``_RUN``: a run whose bounding box lies farther from the point than the best
+    distance so far (by more than a round-off slack) is skipped, as none of its
+    segments could be picked; the others are scanned as before, so the answers are
+    those of the scan over every segment, bit for bit (nine_blade's 41-vertex
+    contours, 2 M points around them: 142-152 -> 122-136 ns of CPU a point).
 
     Parameters
     ----------
@@ -220,6 +229,17 @@ def closest_on_polyline(points, polyline):  # type: ignore[no-untyped-def]
         length2[s] = ex[s] * ex[s] + ey[s] * ey[s]
         start[s] = run
         run += math.sqrt(length2[s])
+    runs = (k + _RUN - 1) // _RUN
+    box = np.empty((runs, 4))  # per run of segments: x min, x max, y min, y max
+    for g in range(runs):
+        last = min(k, (g + 1) * _RUN)
+        box[g, 0] = box[g, 1] = polyline[g * _RUN, 0]
+        box[g, 2] = box[g, 3] = polyline[g * _RUN, 1]
+        for v in range(g * _RUN + 1, last + 1):
+            box[g, 0] = min(box[g, 0], polyline[v, 0])
+            box[g, 1] = max(box[g, 1], polyline[v, 0])
+            box[g, 2] = min(box[g, 2], polyline[v, 1])
+            box[g, 3] = max(box[g, 3], polyline[v, 1])
     n = points.shape[0]
     position = np.empty(n)
     distance = np.empty(n)
@@ -231,13 +251,19 @@ def closest_on_polyline(points, polyline):  # type: ignore[no-untyped-def]
         best_t = 0.0
         best_rx = 0.0
         best_ry = 0.0
-        for s in range(k):
-            wx, wy = px - polyline[s, 0], py - polyline[s, 1]
-            t = min(max((wx * ex[s] + wy * ey[s]) / length2[s], 0.0), 1.0)
-            rx, ry = wx - t * ex[s], wy - t * ey[s]
-            d = math.sqrt(rx * rx + ry * ry)
-            if d < best:
-                best, best_s, best_t, best_rx, best_ry = d, s, t, rx, ry
+        for g in range(runs):
+            # every segment of the run is at least as far as its box (up to round-off)
+            bx = max(box[g, 0] - px, 0.0, px - box[g, 1])
+            by = max(box[g, 2] - py, 0.0, py - box[g, 3])
+            if math.sqrt(bx * bx + by * by) * (1.0 - 1e-9) - 1e-9 > best:
+                continue
+            for s in range(g * _RUN, min(k, (g + 1) * _RUN)):
+                wx, wy = px - polyline[s, 0], py - polyline[s, 1]
+                t = min(max((wx * ex[s] + wy * ey[s]) / length2[s], 0.0), 1.0)
+                rx, ry = wx - t * ex[s], wy - t * ey[s]
+                d = math.sqrt(rx * rx + ry * ry)
+                if d < best:
+                    best, best_s, best_t, best_rx, best_ry = d, s, t, rx, ry
         position[i] = start[best_s] + best_t * math.sqrt(length2[best_s])
         distance[i] = best
         cross[i] = ex[best_s] * best_ry - ey[best_s] * best_rx
@@ -263,3 +289,56 @@ def polyline_projection(points: NDArray[np.float64], polyline: NDArray[np.float6
         raise ValueError(f"a polyline needs two vertices, not {len(line)}")
     position, distance, cross = closest_on_polyline(p, line)
     return np.asarray(position), np.asarray(distance), np.asarray(cross)
+
+
+#: Most cubes ``possibly_within`` lays out.
+_MAX_CELLS = 1 << 24
+
+
+@njit(cache=True)
+def possibly_within(centres, points, bound):  # type: ignore[no-untyped-def]
+    """Whether each point may lie within ``bound`` of one of ``centres`` (a cell test).
+
+    Space is cut into cubes a little larger than ``bound``; a point is flagged when its
+    cube is one of the 27 around a cube holding a centre. A point within ``bound`` of
+    a centre differs from it by at most ``bound`` on every axis, so its cube is at
+    most one away and it is flagged: an unflagged point is farther than ``bound``
+    from every centre (a flagged one may be too; ask a nearest-neighbour query).
+
+    Parameters
+    ----------
+    centres : (m, 3) float64
+        mm, m >= 1.
+    points : (n, 3) float64
+        mm.
+    bound : float
+        mm, > 0.
+
+    Returns
+    -------
+    (n,) bool
+    """
+    cell = bound * 1.001 + 1e-6  # |dx| <= bound stays within one cube after rounding
+    lo = np.empty(3)
+    size = np.empty(3, np.int64)
+    while True:  # larger cubes (still > bound) when there would be too many
+        for c in range(3):
+            lo[c] = centres[:, c].min() - 2.0 * cell
+            size[c] = int((centres[:, c].max() - lo[c]) / cell) + 3
+        if size[0] * size[1] * size[2] <= _MAX_CELLS:
+            break
+        cell *= 2.0
+    near = np.zeros((size[0], size[1], size[2]), np.bool_)
+    for m in range(centres.shape[0]):
+        i = int((centres[m, 0] - lo[0]) / cell)
+        j = int((centres[m, 1] - lo[1]) / cell)
+        k = int((centres[m, 2] - lo[2]) / cell)
+        near[i - 1:i + 2, j - 1:j + 2, k - 1:k + 2] = True
+    out = np.zeros(points.shape[0], np.bool_)
+    for n in range(points.shape[0]):
+        x = (points[n, 0] - lo[0]) / cell
+        y = (points[n, 1] - lo[1]) / cell
+        z = (points[n, 2] - lo[2]) / cell
+        if 0.0 <= x < size[0] and 0.0 <= y < size[1] and 0.0 <= z < size[2]:
+            out[n] = near[int(x), int(y), int(z)]
+    return out

@@ -129,12 +129,22 @@ def _nearest_within(centroids: NDArray[np.float64], points: NDArray[np.float64],
     ``bound``; larger (possibly ``inf``) elsewhere.
 
     The search stops at the bound (a point far from every centroid costs the most
-    without it: 10 us a point on nine_blade's fillets), split over the points.
+    without it: 10 us a point on nine_blade's fillets), split over the points; points
+    whose cell test (``geometry.mesh_query.possibly_within``) puts every centroid
+    beyond the bound are not searched (``inf``, as the bounded search answers them).
     """
+    from geometry.mesh_query import possibly_within
+
     padded = np.nextafter(bound, np.inf) * (1.0 + 1e-12) + 1e-12
-    nearest, _ = cKDTree(centroids).query(points, k=1, distance_upper_bound=padded,
-                                          workers=default_threads())
-    return np.asarray(nearest, np.float64)
+    nearest = np.full(len(points), np.inf)
+    if not len(centroids) or not len(points):
+        return nearest
+    maybe = np.flatnonzero(possibly_within(np.ascontiguousarray(centroids, np.float64),
+                                           np.ascontiguousarray(points, np.float64), padded))
+    found, _ = cKDTree(centroids).query(points[maybe], k=1, distance_upper_bound=padded,
+                                        workers=default_threads())
+    nearest[maybe] = found
+    return nearest
 
 
 def near_faces(triangles: NDArray[np.float64], points: NDArray[np.float64], within: float,
@@ -438,7 +448,7 @@ def region_summary(design: LabelledDesign, stock: str | Path | Deviation, allowa
         if isinstance(stock, Deviation):
             points, moves = stock.points, stock.moves
         else:
-            points, _, moves = Stock.load(Path(stock)).surface_samples()
+            points, moves = Stock.load(Path(stock)).surface_points()
         signed, faces = design.distance.closest(points)
         stock = Deviation(points, signed, moves, faces)
     assert stock.faces is not None

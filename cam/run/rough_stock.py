@@ -147,7 +147,7 @@ def stock_deviation(stock: Stock, distance: DesignDistance,
     """
     from cam.verify.deviation import Deviation, load_deviation
 
-    points, _, moves = stock.surface_samples()
+    points, moves = stock.surface_points()
     if saved is not None:
         known = load_deviation(saved, points, moves, distance)
         if known is not None:

@@ -194,7 +194,7 @@ def _short_stock(work: Stock, distance: DesignDistance, opts: VerifyOptions, pro
     ``opts.refuse_short_stock`` an ``InputError`` naming the deepest place instead."""
     from cam.verify.shortfall import below_design_top, stock_short_events
 
-    points, _, moves = work.surface_samples()
+    points, moves = work.surface_points()
     maybe = below_design_top(points, distance.triangles)
     signed, _ = distance.closest(points[maybe])
     found = stock_short_events(points[maybe], signed, moves[maybe], opts.gouge_tolerance,
@@ -378,7 +378,7 @@ def run_verify(
     deviation: Deviation | None = None
     if distance is not None:
         allowance = opts.allowance if opts.allowance is not None else (spec_allowance or 0.0)
-        points, _, moves_of = work.surface_samples()
+        points, moves_of = work.surface_points()
         deviation = sample_deviation(points, moves_of, distance,
                                     previous if initial_stock is not None else None, earlier)
         deviation_summary = deviation.summary()

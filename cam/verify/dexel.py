@@ -43,6 +43,45 @@ def material_range(lo, hi, start, count):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
+def fill_ends(lo, hi, lom, him, start, count, origin, shape, pitch, k, a, b, points, moves,
+              offset):  # type: ignore[no-untyped-def]
+    """Write a grid's interval ends into ``points[offset:]`` (n, 3) and ``moves``.
+
+    The order and the values of ``DexelGrid.ends``: every interval's start in ray
+    order, then every interval's end; coordinate ``a`` of a ray's points
+    ``origin[0] + (i + 0.5) * pitch``, ``b`` likewise with ``j``, ``k`` the end.
+    Returns the number of ends written (twice the intervals).
+    """
+    nj = shape[1]
+    total = 0
+    for r in range(count.shape[0]):
+        total += count[r]
+    w0 = offset
+    w1 = offset + total
+    for r in range(count.shape[0]):
+        n = count[r]
+        if n == 0:
+            continue
+        i = r // nj
+        j = r - i * nj
+        ca = origin[0] + (i + 0.5) * pitch
+        cb = origin[1] + (j + 0.5) * pitch
+        base = start[r]
+        for m in range(n):
+            points[w0, a] = ca
+            points[w0, b] = cb
+            points[w0, k] = lo[base + m]
+            moves[w0] = lom[base + m]
+            points[w1, a] = ca
+            points[w1, b] = cb
+            points[w1, k] = hi[base + m]
+            moves[w1] = him[base + m]
+            w0 += 1
+            w1 += 1
+    return 2 * total
+
+
+@njit(cache=True, nogil=True)
 def refresh_tiles(lo, hi, start, count, shape, tile, t_lo, t_hi, dirty):  # type: ignore[no-untyped-def]
     """Recompute the material range of the tiles flagged in ``dirty`` (and clear the
     flags); the others are left as they are."""
@@ -274,6 +313,20 @@ class DexelGrid:
         out[:, a] = self.origin[0] + (i + 0.5) * self.pitch
         out[:, b] = self.origin[1] + (j + 0.5) * self.pitch
         return out
+
+    def n_ends(self) -> int:
+        """Interval ends (surface samples) of the grid: twice its intervals."""
+        return 2 * int(self.count.sum())
+
+    def fill_ends(self, points: NDArray[np.float64], moves: NDArray[np.int32],
+                  offset: int) -> int:
+        """Write ``ends()``'s points and move ids (without normals) into
+        ``points[offset:]`` ((n, 3) float64, mm) and ``moves[offset:]`` (compiled, no
+        temporaries); returns the number written (``n_ends``)."""
+        a, b = self.axes
+        return int(fill_ends(self.lo, self.hi, self.lo_move, self.hi_move, self.start,
+                             self.count, self.origin, np.asarray(self.shape, np.int64),
+                             float(self.pitch), self.k, a, b, points, moves, offset))
 
     def ends(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int32]]:
         """Surface samples: every interval end with its outward normal and move id.

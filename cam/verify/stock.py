@@ -64,6 +64,26 @@ def default_threads() -> int:
     return max(1, os.cpu_count() or 1)
 
 
+#: Deflate level of a saved stock: 1 writes nine_blade's finished stock (278 MB of
+#: arrays) in 2.6 s of CPU instead of 3.9 s at ``savez_compressed``'s 6, 4 % larger.
+NPZ_LEVEL = 1
+
+
+def _npz_bytes(arrays: dict[str, NDArray[Any]]) -> bytes:
+    """A compressed ``.npz`` archive of ``arrays`` (what ``np.savez_compressed``
+    writes, at deflate level ``NPZ_LEVEL``; ``np.load`` reads it)."""
+    import io
+    import zipfile
+
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_DEFLATED,
+                         compresslevel=NPZ_LEVEL) as archive:
+        for name, array in arrays.items():
+            with archive.open(f"{name}.npy", "w", force_zip64=True) as member:
+                np.lib.format.write_array(member, np.asanyarray(array), allow_pickle=False)
+    return buffer.getvalue()
+
+
 class Stock:
     """Tri-dexel stock model.
 
@@ -279,6 +299,24 @@ class Stock:
         """
         return float(np.mean([g.volume() for g in self.grids]))
 
+    def surface_points(self) -> tuple[NDArray[np.float64], NDArray[np.int32]]:
+        """``surface_samples`` without the normals: the points and move ids of all the
+        interval ends, written once into arrays of their final size.
+
+        Returns
+        -------
+        points : (n, 3) float64
+            mm, in ``surface_samples`` order with the same values.
+        moves : (n,) int32
+        """
+        total = sum(g.n_ends() for g in self.grids)
+        points = np.empty((total, 3))
+        moves = np.empty(total, np.int32)
+        offset = 0
+        for grid in self.grids:
+            offset += grid.fill_ends(points, moves, offset)
+        return points, moves
+
     def surface_samples(
         self,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int32]]:
@@ -391,8 +429,6 @@ class Stock:
         Path
             ``path``.
         """
-        import io
-
         arrays: dict[str, NDArray[Any]] = {
             "version": np.array([STATE_VERSION], np.int64),
             "pitch": np.array([self.pitch]),
@@ -402,9 +438,7 @@ class Stock:
         }
         for k, grid in enumerate(self.grids):
             arrays.update(grid.to_arrays(f"g{k}"))
-        buffer = io.BytesIO()
-        np.savez_compressed(buffer, **arrays)  # type: ignore[arg-type]
-        return write_bytes_atomic(path, buffer.getvalue())
+        return write_bytes_atomic(path, _npz_bytes(arrays))
 
     @classmethod
     def load(cls, path: str | Path) -> Stock:

@@ -114,3 +114,20 @@ def test_a_saved_deviation_is_read_back_only_for_its_samples_and_design(
     cut = stock_deviation(stock, distance, path)  # the samples changed: measured
     points, _, moves = stock.surface_samples()
     assert np.array_equal(cut.distance, distance.closest(points)[0])
+
+
+def test_surface_points_are_the_surface_samples_without_normals() -> None:
+    """The compiled fill gives the same points, move ids, order and dtypes as
+    ``surface_samples`` on a stock whose rays hold several intervals (a slot cut
+    through a box: rays of the X and Y grids split in two)."""
+    stock = Stock.box(np.array([-10.0, -8.0, -6.0]), np.array([10.0, 8.0, 0.0]), 0.5)
+    stock.sweep(np.array([[-12.0, 0.3, -3.0], [0.0, -9.0, -4.0]]),
+                np.array([[24.0, 0.0, 0.0], [0.0, 18.0, 0.0]]),
+                np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]]), np.array([0, 1], np.int32),
+                tool_shape(resolve_tool("ball6")))
+    assert max(int(g.count.max()) for g in stock.grids) >= 2
+    points, _, moves = stock.surface_samples()
+    got_points, got_moves = stock.surface_points()
+    assert got_points.dtype == points.dtype and got_moves.dtype == moves.dtype
+    assert np.array_equal(got_points, points) and np.array_equal(got_moves, moves)
+    assert set(np.unique(moves)) == {-1, 0, 1}

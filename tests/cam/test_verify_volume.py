@@ -110,9 +110,17 @@ def test_initial_stock_volumes_and_save_load(tmp_path) -> None:  # type: ignore[
     cyl = Stock.cylinder(20.0, 10.0, 0.1, bore=3.0)
     assert cyl.volume() == pytest.approx(math.pi * (100 - 9) * 10, rel=2e-3)
     _polyline(cyl, _tool("ball", 4.0), [(-12, 0, 12), (-12, 0, 7), (12, 0, 7)])
+    cyl.owners = [("a.ngc", 3), ("b.ngc", 12)]
     saved = cyl.save(tmp_path / "s.npz")
     back = Stock.load(saved)
     assert back.volume() == pytest.approx(cyl.volume(), rel=1e-12)
+    assert back.owners == cyl.owners and back.pitch == cyl.pitch
+    import zipfile
+
+    with zipfile.ZipFile(saved) as archive:  # a deflated .npz (numpy.load reads it)
+        assert all(i.compress_type == zipfile.ZIP_DEFLATED for i in archive.infolist())
+        assert sum(i.compress_size for i in archive.infolist()) < sum(
+            i.file_size for i in archive.infolist())
     for a, b in zip(cyl.grids, back.grids, strict=True):
         pa, _, ma = a.ends()
         pb, _, mb = b.ends()

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import trimesh
@@ -122,3 +124,73 @@ def test_polyline_projection_closed_form() -> None:
     assert distance == pytest.approx([2.0, 1.0, 2.0, 5.0, 5.0])
     # left of the first segment (+), right of it (-), right of the second (-)
     assert np.sign(cross[:3]).tolist() == [1.0, -1.0, -1.0]
+
+
+def _polyline_scan(points: np.ndarray, line: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The scan over every segment, in the kernel's operations and order (the first
+    segment of least distance): what the pruned kernel must give bit for bit."""
+    k = len(line) - 1
+    ex, ey = line[1:, 0] - line[:-1, 0], line[1:, 1] - line[:-1, 1]
+    length2 = ex * ex + ey * ey
+    start, run = [], 0.0
+    for s in range(k):
+        start.append(run)
+        run += math.sqrt(length2[s])
+    out = np.empty((3, len(points)))
+    for i, (px, py) in enumerate(points):
+        best, best_s, best_t, best_rx, best_ry = math.inf, 0, 0.0, 0.0, 0.0
+        for s in range(k):
+            wx, wy = px - line[s, 0], py - line[s, 1]
+            t = min(max((wx * ex[s] + wy * ey[s]) / length2[s], 0.0), 1.0)
+            rx, ry = wx - t * ex[s], wy - t * ey[s]
+            d = math.sqrt(rx * rx + ry * ry)
+            if d < best:
+                best, best_s, best_t, best_rx, best_ry = d, s, t, rx, ry
+        out[:, i] = (start[best_s] + best_t * math.sqrt(length2[best_s]), best,
+                     ex[best_s] * best_ry - ey[best_s] * best_rx)
+    return out[0], out[1], out[2]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_polyline_projection_is_the_full_scan_bit_for_bit(seed: int) -> None:
+    """Runs of segments skipped by their bounding box change no answer: a random walk
+    and a zigzag whose vertices and mirror points make exact ties between segments."""
+    rng = np.random.default_rng(seed)
+    walk = np.cumsum(rng.normal(size=(1 + int(rng.integers(1, 90)), 2)), axis=0)
+    zigzag = np.column_stack([np.arange(41.0), np.where(np.arange(41) % 2, 1.0, -1.0)])
+    for line in (walk, zigzag):
+        lo, hi = line.min(axis=0) - 3.0, line.max(axis=0) + 3.0
+        points = np.vstack([lo + (hi - lo) * rng.random((3000, 2)), line,
+                            np.column_stack([line[:, 0], -line[:, 1]]),
+                            np.round(lo + (hi - lo) * rng.random((500, 2)))])
+        got = polyline_projection(points, line)
+        for a, b in zip(got, _polyline_scan(points, line), strict=True):
+            assert np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_possibly_within_flags_every_point_within_the_bound(seed: int) -> None:
+    """A point within the bound of a centre is always flagged (points placed at
+    exactly the bound on an axis and on a diagonal too); the bounded nearest search
+    over the flagged points alone gives the answers of the search over all of them."""
+    from scipy.spatial import cKDTree
+
+    from geometry.mesh_query import possibly_within
+
+    rng = np.random.default_rng(seed)
+    centres = rng.normal(size=(200, 3)) * [20.0, 20.0, 5.0]
+    bound = float(rng.uniform(0.5, 4.0))
+    offsets = np.vstack([rng.normal(size=(3000, 3)) * bound,
+                         np.eye(3) * bound, -np.eye(3) * bound,
+                         np.ones((1, 3)) * bound / math.sqrt(3.0)])
+    points = np.vstack([centres[rng.integers(0, 200, len(offsets))] + offsets,
+                        rng.uniform(-80.0, 80.0, size=(5000, 3))])
+    flagged = possibly_within(centres, points, bound)
+    nearest, _ = cKDTree(centres).query(points, k=1)
+    assert flagged[nearest <= bound].all()
+    assert (~flagged).sum() > 1000
+    tree = cKDTree(centres)
+    every, _ = tree.query(points, k=1, distance_upper_bound=bound)
+    some, _ = tree.query(points[flagged], k=1, distance_upper_bound=bound)
+    assert np.array_equal(every[flagged], some) and np.isinf(every[~flagged]).all()
