@@ -7,7 +7,8 @@ are written together into ``verify/`` (all or nothing):
   allowance = finishing allowance + roughing scallop; a blank short of the design
   (``stock_short``: the blank cuts into the part somewhere) stops the stage with an
   ``InputError`` before any block is run, nothing written;
-* ``verify/finish``: the finish NC files, each with its tool (the finishing tool; the
+* ``verify/finish``: the rest operation's NC files (``cam.run.rest``, if any), then
+  the finish NC files, each with its tool (the finishing tool; the
   fillet program with the fillet tool), starting from the stock the rough run left
   (handed over in memory; ``verify/rough/stock.npz`` is that stock as saved);
   allowance = finishing scallop;
@@ -75,7 +76,8 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
     from cam.verify.stock import Stock
 
     rough = [ctx.out / p["nc"] for p in nc_programs(ctx, "rough")]
-    finish_entries = nc_programs(ctx, "finish")
+    # the rest operation's programs (cam.run.rest) run first, on the rough stock
+    finish_entries = nc_programs(ctx, "rest") + nc_programs(ctx, "finish")
     finish = [ctx.out / p["nc"] for p in finish_entries]
     # post.json names each program's tool; the settings give the arguments to load them
     arguments = {resolve_tool(a).name: a for a in (fillet_tool(ctx), ctx.settings.finish_tool)
