@@ -252,7 +252,7 @@ def plan_rest(ctx: Context, rough: RoughStock) -> Path:
                     span=tool.flute_length + tool.radius)
     document = run_finish(ctx.spec, ctx.machine, ctx.settings.finish_tool, folder,
                           options=FinishOptions.from_mapping(options), progress=False,
-                          stock=rough.path, design=rough.design,
+                          plots=False, stock=rough.path, design=rough.design,
                           design_distance=rough.distance, keep=trim, prefix="rest")
     record.update(planned=True, reach_mm=round(trim.reach, 4),
                   paths=document["summary"]["paths"], points=document["summary"]["points"],
