@@ -12,6 +12,8 @@ are written together into ``verify/`` (all or nothing):
   fillet program with the fillet tool), starting from the stock the rough run left
   (handed over in memory; ``verify/rough/stock.npz`` is that stock as saved);
   allowance = finishing scallop;
+* ``verify/rest``: the finish stage's verification of the rest programs on the rough
+  stock (``cam.run.rest``), kept as it was (the stock finishing planned against);
 * ``verify/regions.json``: the deviation of the rough and the finished stock per face
   face group (``cam.run.regions``): the acceptance numbers (every milled face: blade
   sides, hub, fillets, leading and trailing edges, within allowance + scallop +
@@ -69,6 +71,7 @@ def allowances(ctx: Context) -> dict[str, float]:
 
 def verify_chain(ctx: Context) -> dict[str, Any]:
     """Run both verifications and the region analysis; returns regions.json content."""
+    from cam.run.rest import REST_VERIFY
     from cam.run.rough_stock import DEVIATION, reusable_rough, stock_deviation
     from cam.tools import resolve_tool
     from cam.verify.command import VerifyOptions, run_verify
@@ -95,6 +98,9 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
         # stage's run of the same rough programs is reused (cam/run/rough_stock.py);
         # one stock through both runs: the finish run continues the rough run's final
         # state in memory (verify/rough/stock.npz is that state, written once)
+        rest = ctx.out / REST_VERIFY  # the finish stage's run of the rest programs: kept
+        if rest.is_dir():
+            shutil.copytree(rest, stage / "rest", ignore=shutil.ignore_patterns("nc"))
         reused = reusable_rough(ctx)
         rough_deviation: Deviation | None
         if reused is not None:
