@@ -422,7 +422,9 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
         raise InputError("five-axis finishing needs a ball-end mill", field="tool",
                          value=tool.name, accepted="a tool of type 'ball'")
     stepover = scallop_stepover(tool.radius, options.scallop_mm)
-    base = passage_paths(surfaces, tool.radius, options.point_spacing_mm, stepover,
+    # a semi-finish (allowance_mm > 0) offsets the ball centres by R + allowance
+    base = passage_paths(surfaces, tool.radius + options.allowance_mm,
+                         options.point_spacing_mm, stepover,
                          blade=options.blade_passes, hub=options.hub_passes,
                          reach=max(tool.flute_length - tool.radius, 0.0),
                          chordal=options.chordal_tolerance_mm)
