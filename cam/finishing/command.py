@@ -69,6 +69,7 @@ from postproc.toolpath import Cutter, Toolpath
 
 if TYPE_CHECKING:
     from cam.finishing.pieces import PassTrim
+    from cam.finishing.plan_memo import PlanMemo
     from cam.verify.deviation import DesignDistance
     from cam.verify.stock import Stock
     from geometry.impeller import Impeller
@@ -265,6 +266,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                stock: str | Path | None = None, machine_obstacle: bool = True,
                design: Impeller | None = None, design_distance: DesignDistance | None = None,
                keep: PassTrim | None = None, prefix: str = "finish",
+               memo: PlanMemo | None = None,
                **fields: Any) -> dict[str, Any]:
     """Five-axis finishing of an impeller: APT per operation, finish.json, plots.
 
@@ -317,6 +319,9 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
     prefix : str
         Name of the APT files, ``{prefix}_{operation}.apt`` (``"rest"``: the chain's
         rest operation).
+    memo : PlanMemo, optional
+        Pass plans kept from an earlier run (recalled instead of planned) and where
+        this run's are recorded (``plan_memo``; the chain's rest operation).
     **fields
         Fields of ``FinishOptions`` (mm, deg) replacing those of ``options``, checked
         like a ``[machining.finish]`` table (unknown names refused).
@@ -396,7 +401,8 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         reach = None if obstacle is None else partial(
             check_machine_reach, obstacle, the_tool, options=opts, machine=str(machine))
         result = plan_finishing(surfaces, the_tool, kins, collision, plan_opts,
-                                scene_source=scene, progress=report, keep=keep, before=reach)
+                                scene_source=scene, progress=report, keep=keep, before=reach,
+                                memo=memo)
         cut_short: list[dict[str, Any]] = list(result.extra.get("cut_short", []))
         result_kept = result.extra.get("kept")
         result = FinishResult(result.paths, the_tool, opts, scene)
@@ -411,14 +417,14 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                 result = FinishResult([*result.paths, *flank.paths], the_tool, opts, scene)
         if opts.edge_passes:
             edges = plan_edges(surfaces, the_tool, kins, collision, opts, scene_source=scene,
-                               progress=report)
+                               progress=report, memo=memo)
             toolpaths.update(finish_toolpaths(edges, surfaces, collision, kins))
             tools.update({op: the_tool for op in edges.operations()})
             cut_short += edges.extra["cut_short"]
             result = FinishResult([*result.paths, *edges.paths], the_tool, opts, scene)
         if fillet is not None:
             pencil = plan_fillet(surfaces, fillet, the_tool.radius, kins, collision, opts,
-                                 scene_source=scene, progress=report)
+                                 scene_source=scene, progress=report, memo=memo)
             toolpaths.update(finish_toolpaths(pencil, surfaces, collision, kins))
             tools.update({op: fillet for op in pencil.operations()})
             cut_short += pencil.extra["cut_short"]

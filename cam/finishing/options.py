@@ -68,12 +68,13 @@ class FinishOptions:
         ball centres run ``R + allowance_mm`` from the design (0: finishing; > 0: a
         semi-finish, e.g. the chain's rest operation, ``cam.run.rest``).
     rest_machining : bool
-        Chain only (``cam.run.rest``): before finishing, semi-finish where the verified
-        rough stock holds more than ``rest_threshold_mm`` beyond the finishing
-        allowance (false: finishing meets the rough stock as it is).
+        Chain only (``cam.run.rest``): where finishing left postures out near verified
+        rough stock more than ``rest_threshold_mm`` beyond the finishing allowance,
+        semi-finish there and finish those passes again (false: finishing meets the
+        rough stock as it is).
     rest_threshold_mm : float
-        Chain only: rough-stock material beyond the finishing allowance that calls for
-        the rest operation, mm.
+        Chain only: rough-stock material beyond the finishing allowance that, near
+        postures finishing left out, calls for the rest operation, mm.
     c_tilt_deg : float
         Initial rotation of the ruling axis about the C (impeller) axis away from
         the blade, deg (the paper: "about 1 ~ 2 degrees").

@@ -54,6 +54,7 @@ from postproc.kinematics import Kinematics
 if TYPE_CHECKING:
     from cam.collision import CollisionScene
     from cam.finishing.pieces import PassTrim
+    from cam.finishing.plan_memo import PlanMemo
 
 __all__ = [
     "FinishResult",
@@ -382,8 +383,8 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                    scene: CollisionScene, options: FinishOptions, *, scene_source: str,
                    progress: Callable[[int, int, str], None] | None = None,
                    keep: PassTrim | None = None,
-                   before: Callable[[list[CutterPath]], object] | None = None
-                   ) -> FinishResult:
+                   before: Callable[[list[CutterPath]], object] | None = None,
+                   memo: PlanMemo | None = None) -> FinishResult:
     """Generate and finish every path of every passage (passage 0, then rotations).
 
     Parameters
@@ -410,6 +411,9 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     before : callable, optional
         Called with every path of every passage before any is finished (a quick
         check that may refuse the job: ``machine_reach.check_machine_reach``).
+    memo : PlanMemo, optional
+        Plans of passes kept from an earlier run, recalled by name instead of planned
+        again; what is planned is recorded (``plan_memo``; the chain's rest operation).
 
     Returns
     -------
@@ -453,8 +457,13 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     hints: dict[str, StepHint | None] = {}
     for i, path in enumerate(ordered):
         key = path.name.split(".", 1)[1]
-        pieces, lost = finish_runs(path, tool, kins, scene, options, surfaces,
-                                   hint=hints.get(key))
+        known = None if memo is None else memo.recall(tool.name, path.name)
+        if known is None:
+            known = finish_runs(path, tool, kins, scene, options, surfaces,
+                                hint=hints.get(key))
+            if memo is not None:
+                memo.record(tool.name, path.name, known)
+        pieces, lost = known
         results += pieces
         hints[key] = pieces[0].step_hint if len(pieces) == 1 and not lost.size else None
         if lost.size:

@@ -1,34 +1,38 @@
-"""The rest operation: a semi-finish where roughing left more than finishing can take.
+"""The rest operation: a semi-finish where the rough stock left finishing short.
 
 Roughing's 3+2 layers leave ``eta + scallop`` on the faces they reach, but more where
 their ball cannot follow the blade (inlet ends of the pressure sides, next to the
 fillets, the leading edges): on the splitter fixture 3.1-3.9 mm. Finishing keeps its
 neck, shank and holder clear of that stock (``cam.finishing.stock_clearance``), so it
-leaves out the postures there (finish.json ``cut_short``). The finish stage therefore
-runs, between the rough verification and the finishing, this operation:
+leaves out the postures there (finish.json ``cut_short``). The finish stage
+(``stages.finish_stage``) therefore:
 
-1. **where**: the verified rough stock's surface samples on the milled faces
-   (``cam.run.regions.face_groups``: blade sides, hub between the blades, fillets,
-   edges; not the lathe skin over the tips) farther than ``eta + rest_threshold_mm``
-   from the design (``eta``: the finishing allowance of rough.json), and the
-   finishing postures that stock blocks (``rest_blocked.blocked_centres``: shank or
-   holder too close to the stock beyond what roughing is meant to leave, at the
-   postures finishing starts from). Roughing leaves more than its allowance in many
-   places finishing copes with (nine_blade: 23 % of the pressure-side samples beyond
-   1.5 mm), so both are needed. None: no rest operation, nothing written but
-   ``rest/rest.json``;
-2. **plan**: the five-axis finishing planner (``run_finish``) with the finishing tool,
-   the finish stage's clearances from the design and from the rough stock, ball
-   centres ``R + eta`` from the design (``FinishOptions.allowance_mm``) and the
-   roughing scallop (at most half the ball radius), on the junction, blade and hub
-   passes cut to the points whose ball comes within ``R + eta + stepover / 2`` of such
-   a sample in any passage and within flute length + R of a blocked posture's ball
-   (``RestTrim``), widened by ``PAD`` points each way. Every
-   check of finishing applies (collisions with the design, the rough stock and the
-   machine; links); it writes ``rest/`` (``rest_*.apt``, its finish.json);
-3. **verify**: the rest programs, posted as the post stage will, are verified on the
-   rough stock into ``verify/rest/``; that stock is the one finishing then plans
-   against (its shank kept clear of what the rest operation left).
+1. **finishes against the rough stock** (``run_finish``), every pass's plan kept
+   (``cam.finishing.plan_memo``);
+2. **where**: takes its left-out postures that the rough stock caused
+   (``rest_trigger.stock_left_out``: verified rough-stock samples on the milled faces
+   -- ``cam.run.regions.face_groups``: blade sides, hub between the blades, fillets,
+   edges; not the lathe skin over the tips -- farther than ``eta + rest_threshold_mm``
+   from the design lie within flute length + R of the ball centre; ``eta``: the
+   finishing allowance of rough.json). None: no rest operation, nothing written but
+   ``rest/rest.json``; roughing leaves more than its allowance in many places where
+   finishing copes (nine_blade), and those call for nothing;
+3. **plans the rest operation** (``plan_rest``): the five-axis finishing planner with
+   the finishing tool, the finish stage's clearances from the design and from the
+   rough stock, ball centres ``R + eta`` from the design
+   (``FinishOptions.allowance_mm``) and the roughing scallop (at most half the ball
+   radius), on the junction, blade and hub passes cut to the points whose ball comes
+   within ``R + eta + stepover / 2`` of such a sample in any passage and within flute
+   length + R of such a left-out posture's ball (``RestTrim``, passage 0's frame),
+   widened by ``PAD`` points each way along the pass. Every check of finishing
+   applies (collisions with the design, the rough stock and the machine; links); it
+   writes ``rest/`` (``rest_*.apt``, its finish.json);
+4. **verifies** the rest programs, posted as the post stage will, on the rough stock
+   into ``verify/rest/``;
+5. **finishes again against that stock**, planning anew only the passes that held
+   those left-out postures; every other pass keeps its plan (clean against the rough
+   stock, so against the smaller rest stock too); links, checks and files are made
+   again from all the plans.
 
 It leaves at most ``eta`` + the roughing scallop, what roughing is meant to leave.
 The post stage writes its programs between roughing and finishing (operation
@@ -42,6 +46,7 @@ from __future__ import annotations
 import json
 import shutil
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -55,9 +60,11 @@ from impeller_cam.atomic import replace_path, write_text_atomic
 
 if TYPE_CHECKING:
     from cam.finishing.paths import CutterPath
+    from cam.finishing.plan_memo import PlanMemo
     from cam.run.rough_stock import RoughStock
 
-__all__ = ["PAD", "REST", "REST_VERIFY", "RestTrim", "plan_rest", "rest_samples"]
+__all__ = ["PAD", "REST", "REST_VERIFY", "RestPlan", "RestTrim", "finish_with_rest", "plan_rest",
+           "rest_samples"]
 
 #: The rest operation's folder (relative to the output).
 REST = "rest"
@@ -189,67 +196,80 @@ def rest_options(ctx: Context) -> dict[str, Any]:
     return options
 
 
-def plan_rest(ctx: Context, rough: RoughStock) -> Path:
-    """Plan and verify the rest operation; the stock finishing is to meet.
+@dataclass
+class RestPlan:
+    """What the rest operation left for finishing.
+
+    Attributes
+    ----------
+    stock : Path
+        ``verify/rest/stock.npz`` after the rest programs, else the rough stock.
+    replan : frozenset of str
+        Finishing passes to plan again against ``stock`` (those whose postures the
+        rough stock left out, ``rest_trigger.stock_left_out``); empty: keep the plan.
+    """
+
+    stock: Path
+    replan: frozenset[str]
+
+
+def plan_rest(ctx: Context, rough: RoughStock, finished: dict[str, Any]) -> RestPlan:
+    """Plan and verify the rest operation where the rough stock left finishing short.
 
     Writes ``rest/rest.json`` (always: whether it was needed and why) and, when
     needed, the rest APT files (``run_finish``, prefix ``rest``) and their
     verification in ``verify/rest``; an earlier ``rest/`` and ``verify/rest`` are
     replaced.
 
+    Parameters
+    ----------
+    ctx : Context
+    rough : RoughStock
+        The verified rough stock (``rough_stock.verify_rough``).
+    finished : dict
+        finish.json of finishing planned against that stock (its ``cut_short``).
+
     Returns
     -------
-    Path
-        ``verify/rest/stock.npz`` after the rest programs, else the rough stock.
+    RestPlan
     """
     from cam.finishing.command import run_finish
     from cam.finishing.options import FinishOptions, scallop_stepover
-    from cam.run.rough_stock import DEVIATION, stock_deviation
+    from cam.run.rest_trigger import stock_left_out
     from cam.tools import resolve_tool
-    from cam.verify.stock import Stock
 
     folder, verified = ctx.out / REST, ctx.out / REST_VERIFY
     for old in (folder, verified):
         if old.exists():
             shutil.rmtree(old)
     finish = FinishOptions.from_mapping(dict(ctx.settings.finish))
-    rough_json = read_json(ctx, "rough/rough.json", "rough")
-    eta = float(rough_json["finishing_allowance_mm"])
+    eta = float(read_json(ctx, "rough/rough.json", "rough")["finishing_allowance_mm"])
     limit = eta + finish.rest_threshold_mm
-    record: dict[str, Any] = {"format": "impeller-cam rest 1",
+    cut_short = finished.get("cut_short", [])
+    record: dict[str, Any] = {"format": "impeller-cam rest 2",
                               "enabled": finish.rest_machining,
                               "finishing_allowance_mm": eta,
-                              "threshold_mm": finish.rest_threshold_mm, "limit_mm": limit}
-    samples = np.zeros((0, 3))
-    if finish.rest_machining:
-        stock = Stock.load(rough.path)
-        deviation = stock_deviation(stock, rough.distance, rough.path.parent / DEVIATION)
-        faces = deviation.faces
-        if faces is None:
-            faces = rough.distance.closest(deviation.points)[1]
-        milled = _milled(ctx, rough, deviation.points, deviation.distance, faces)
-        samples = rest_samples(deviation.points, deviation.distance, milled, limit)
-        record.update(milled_samples=int(milled.sum()), samples_over=len(samples),
-                      max_mm=round(float(deviation.distance[milled].max()), 4)
-                      if milled.any() else None)
-    tool = resolve_tool(ctx.settings.finish_tool)
-    blocked = np.zeros((0, 3))
-    if len(samples):
-        from cam.run.rest_blocked import blocked_centres
-
-        blocked = blocked_centres(rough.design, rough.path, rough.distance, tool,
-                                  FinishOptions.from_mapping(finish_options(ctx)))
-        record["blocked_postures"] = len(blocked)
-    if not len(samples) or not len(blocked):
-        record["planned"] = False
+                              "threshold_mm": finish.rest_threshold_mm, "limit_mm": limit,
+                              "left_out_before": _by_passage(cut_short),
+                              "planned": False}
+    nothing = RestPlan(rough.path, frozenset())
+    if not finish.rest_machining or not cut_short:
         _write_record(folder, record)
-        return rough.path
+        return nothing
+    samples = _rough_samples(ctx, rough, limit, record)
+    tool = resolve_tool(ctx.settings.finish_tool)
+    spec = rough.design.surfaces.spec
+    span = tool.flute_length + tool.radius
+    blocked = stock_left_out(cut_short, samples, span, float(spec.pitch))
+    record.update(span_mm=round(span, 4), stock_left_out_points=blocked.points,
+                  stock_left_out_passes=sorted(blocked.passes))
+    if not blocked.points:
+        _write_record(folder, record)
+        return nothing
     options = rest_options(ctx)
     stepover = scallop_stepover(tool.radius, float(options["scallop_mm"]))
-    spec = rough.design.surfaces.spec
     trim = RestTrim(samples, tool.radius + float(options["allowance_mm"]) + 0.5 * stepover,
-                    float(spec.pitch), int(spec.blades), blocked=blocked,
-                    span=tool.flute_length + tool.radius)
+                    float(spec.pitch), int(spec.blades), blocked=blocked.centres, span=span)
     document = run_finish(ctx.spec, ctx.machine, ctx.settings.finish_tool, folder,
                           options=FinishOptions.from_mapping(options), progress=False,
                           plots=False, stock=rough.path, design=rough.design,
@@ -258,12 +278,82 @@ def plan_rest(ctx: Context, rough: RoughStock) -> Path:
                   paths=document["summary"]["paths"], points=document["summary"]["points"],
                   left_out_points=document["summary"]["left_out_points"],
                   operations=sorted(document["operations"]))
-    stock_path = rough.path
-    if document["operations"]:
-        stock_path = _verify_rest(ctx, rough, document, eta + float(options["scallop_mm"]))
-        record["verify"] = REST_VERIFY
+    if not document["operations"]:
+        _write_record(folder, record)
+        return nothing
+    stock_path = _verify_rest(ctx, rough, document, eta + float(options["scallop_mm"]))
+    record["verify"] = REST_VERIFY
     _write_record(folder, record)
-    return stock_path
+    return RestPlan(stock_path, blocked.passes)
+
+
+def finish_with_rest(ctx: Context, rough: RoughStock,
+                     finish: Callable[[Path, PlanMemo], dict[str, Any]]) -> dict[str, Any]:
+    """Finishing against the rough stock, the rest operation where that stock left
+    postures out (``plan_rest``), and finishing again against the stock it left with
+    only those postures' passes planned anew (the module docstring, steps 1-5).
+
+    Parameters
+    ----------
+    ctx : Context
+    rough : RoughStock
+    finish : callable
+        ``finish(stock, memo)``: finishing (``run_finish`` into ``finish/``) against
+        the stock ``stock.npz`` with the pass plans ``memo``; returns finish.json.
+
+    Returns
+    -------
+    dict
+        The final finish.json. ``rest/rest.json`` gains ``replanned_passes``,
+        ``recalled_plans`` and ``left_out_after`` when finishing ran again.
+    """
+    from cam.finishing.plan_memo import PlanMemo
+
+    memo = PlanMemo()
+    first = finish(rough.path, memo)
+    rest = plan_rest(ctx, rough, first)
+    if not rest.replan:
+        return first
+    again = memo.again(rest.replan)
+    document = finish(rest.stock, again)
+    record = read_json(ctx, f"{REST}/rest.json", "finish")
+    record.update(replanned_passes=len(rest.replan), recalled_plans=again.recalled,
+                  left_out_after=_by_passage(document["cut_short"]))
+    _write_record(ctx.out / REST, record)
+    return document
+
+
+def _by_passage(cut_short: list[dict[str, Any]]) -> dict[str, int]:
+    """Left-out postures of finish.json's ``cut_short``: ``"all"`` and per passage
+    (``"p0"``, ...)."""
+    from cam.run.rest_trigger import passage_of
+
+    counts: dict[str, int] = {"all": 0}
+    for entry in cut_short:
+        key = f"p{passage_of(str(entry['path']))}"
+        counts[key] = counts.get(key, 0) + len(entry["left_out"])
+        counts["all"] += len(entry["left_out"])
+    return counts
+
+
+def _rough_samples(ctx: Context, rough: RoughStock, limit: float,
+                   record: dict[str, Any]) -> NDArray[np.float64]:
+    """The rough stock's samples on milled faces beyond ``limit`` (``rest_samples``);
+    their counts and the largest excess go into ``record``."""
+    from cam.run.rough_stock import DEVIATION, stock_deviation
+    from cam.verify.stock import Stock
+
+    deviation = stock_deviation(Stock.load(rough.path), rough.distance,
+                                rough.path.parent / DEVIATION)
+    faces = deviation.faces
+    if faces is None:
+        faces = rough.distance.closest(deviation.points)[1]
+    milled = _milled(ctx, rough, deviation.points, deviation.distance, faces)
+    samples = rest_samples(deviation.points, deviation.distance, milled, limit)
+    record.update(milled_samples=int(milled.sum()), samples_over=len(samples),
+                  max_mm=round(float(deviation.distance[milled].max()), 4)
+                  if milled.any() else None)
+    return samples
 
 
 def _write_record(folder: Path, record: dict[str, Any]) -> None:

@@ -131,22 +131,27 @@ def fillet_tool(ctx: Context) -> str | None:
 
 
 def finish_stage(ctx: Context) -> None:
-    """The rough programs verified (``verify_rough``), the rest operation where they
-    left too much (``cam.run.rest.plan_rest``: ``rest/``), then five-axis finishing
-    (``run_finish``) with the finishing tool (``finish_options``) against the stock left,
-    and the fillet pencil passes with ``fillet_tool``; both runs share one design (the
-    spec's impeller and its signed distance, built once)."""
+    """The rough programs verified (``verify_rough``), five-axis finishing (``run_finish``)
+    with the finishing tool (``finish_options``) against that stock and the fillet pencil
+    passes with ``fillet_tool``; where the stock left finishing postures out, the rest
+    operation (``cam.run.rest.plan_rest``: ``rest/``) and finishing again against the
+    stock it left, only those postures' passes planned anew (``plan_memo``). The runs
+    share one design (the spec's impeller and its signed distance, built once)."""
     from cam.finishing.command import run_finish
     from cam.finishing.options import FinishOptions
-    from cam.run.rest import plan_rest
+    from cam.finishing.plan_memo import PlanMemo
+    from cam.run.rest import finish_with_rest
     from cam.run.rough_stock import verify_rough
 
     rough = verify_rough(ctx)
-    stock = plan_rest(ctx, rough)  # the rest operation where roughing left too much
-    run_finish(ctx.spec, ctx.machine, ctx.settings.finish_tool, ctx.out / "finish",
-               options=FinishOptions.from_mapping(finish_options(ctx)), progress=False,
-               fillet_tool=fillet_tool(ctx), stock=stock, design=rough.design,
-               design_distance=rough.distance)
+
+    def finish(stock: Path, memo: PlanMemo) -> dict[str, Any]:
+        return run_finish(ctx.spec, ctx.machine, ctx.settings.finish_tool, ctx.out / "finish",
+                          options=FinishOptions.from_mapping(finish_options(ctx)),
+                          progress=False, fillet_tool=fillet_tool(ctx), stock=stock,
+                          design=rough.design, design_distance=rough.distance, memo=memo)
+
+    finish_with_rest(ctx, rough, finish)
 
 
 def apt_files(ctx: Context) -> list[tuple[str, str, str]]:

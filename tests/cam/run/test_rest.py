@@ -1,10 +1,11 @@
-"""The rest operation's choice of points (``cam.run.rest``) and its planner offset."""
+"""The rest operation (``cam.run.rest``): its trigger (finishing's postures the rough
+stock left out, ``cam.run.rest_trigger``), its choice of points, its planner offset, and
+finishing planned again only where it cut (``cam.finishing.plan_memo``)."""
 
 from __future__ import annotations
 
 import json
 import math
-import shutil
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -14,7 +15,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cam.finishing.options import FinishOptions
+from cam.finishing.plan_memo import PlanMemo
 from cam.run.rest import PAD, RestTrim, rest_samples
+from cam.run.rest_trigger import passage_of, stock_left_out
 from impeller_cam.errors import InputError
 from tests.cam.conftest import CHAIN_MACHINE, CHAIN_SETTINGS, SMALL_SPEC
 
@@ -76,67 +79,169 @@ def test_the_allowance_and_the_threshold_are_checked() -> None:
     assert FinishOptions().allowance_mm == 0.0 and FinishOptions().rest_machining
 
 
-def _over(out: Path, relative: str, limit: float) -> int:
-    """Milled-face samples of a verified stock farther than ``limit`` from the design."""
-    from cam.run.regions import LabelledDesign, face_groups
+def _entry(name: str, centres: list[list[float]]) -> dict[str, object]:
+    return {"path": name, "left_out": list(range(len(centres))), "centres_mm": centres}
+
+
+def test_the_passage_is_read_from_the_pass_name() -> None:
+    assert passage_of("p0.blade.blade0.pressure.04") == 0
+    assert passage_of("p12.fillet.blade1.suction.00.te") == 12
+    assert passage_of("junction") == 0
+
+
+def test_only_left_out_postures_near_rest_samples_call_for_the_rest_operation() -> None:
+    """A left-out posture counts when a sample beyond the limit lies within the span of
+    its ball centre; the others (left out for the design or the machine) do not."""
+    samples = np.array([[10.0, 0.0, 0.0]])
+    cut_short = [_entry("p0.blade.blade0.pressure.04", [[10.0, 0.0, 11.9], [10.0, 0.0, 12.1]]),
+                 _entry("p0.fillet.blade1.suction.00.te", [[40.0, 0.0, 0.0]])]
+    found = stock_left_out(cut_short, samples, 12.0, math.pi / 3)
+    assert found.points == 1 and found.left_out == 3
+    assert found.passes == frozenset({"p0.blade.blade0.pressure.04"})
+    np.testing.assert_allclose(found.centres, [[10.0, 0.0, 11.9]])
+    none = stock_left_out(cut_short, np.zeros((0, 3)), 12.0, math.pi / 3)
+    assert none.points == 0 and none.left_out == 3 and not none.passes
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 6), st.floats(0.0, 2.0 * math.pi), st.floats(5.0, 60.0))
+def test_left_out_centres_are_turned_into_passage_0(k: int, angle: float,
+                                                     radius: float) -> None:
+    """A posture of passage k is passage 0's posture turned by k pitches: turned back,
+    it lands on passage 0's centre (the rest operation is planned on passage 0)."""
+    pitch = 2.0 * math.pi / 7
+    centre_0 = np.array([radius * math.cos(angle), radius * math.sin(angle), 7.0])
+    turn = k * pitch
+    centre_k = [radius * math.cos(angle + turn), radius * math.sin(angle + turn), 7.0]
+    found = stock_left_out([_entry(f"p{k}.hub.03", [centre_k])],
+                           np.array([centre_k]) + [0.0, 0.0, 0.5], 1.0, pitch)
+    np.testing.assert_allclose(found.centres, [centre_0], atol=1e-9)
+
+
+def test_the_memo_recalls_plans_except_those_planned_anew() -> None:
+    memo = PlanMemo()
+    assert memo.recall("ball4", "p0.hub.01") is None
+    memo.record("ball4", "p0.hub.01", "plan a")
+    memo.record("ball4", "p0.hub.02", "plan b")
+    assert memo.recall("ball4", "p0.hub.01") == "plan a" and memo.recalled == 1
+    assert memo.recall("ball2", "p0.hub.01") is None  # another tool's pass
+    again = memo.again({"p0.hub.02"})
+    assert again.recall("ball4", "p0.hub.01") == "plan a"
+    assert again.recall("ball4", "p0.hub.02") is None
+    again.record("ball4", "p0.hub.02", "plan c")
+    assert memo.plans[("ball4", "p0.hub.02")] == "plan c" and again.recalled == 1
+
+
+def _lumped_stock(design: object, distance: object, folder: Path) -> tuple[Path, np.ndarray]:
+    """The small design with a lump of stock 1.5-4 mm off blade 0's pressure side,
+    6-16 mm above the middle of its pass ``.04`` along the ruling (where the finishing
+    tool's neck passes when its ball is below): what roughing leaves where its ball
+    cannot follow the blade. Returns the saved stock and the lump's corners (8, 3)."""
+    import trimesh
+
+    from cam.finishing.options import scallop_stepover
+    from cam.finishing.passes import passage_paths
+    from cam.tools import resolve_tool
     from cam.verify.stock import Stock
 
-    design = LabelledDesign(SMALL_SPEC)
-    points, _, _ = Stock.load(out / relative).surface_samples()
-    signed, faces = design.distance.closest(points)
-    groups, _ = face_groups(design, points, design.face_roles[faces], np.abs(signed), 0.0,
-                            design.face_splitter[faces], skin_gap=0.0)
-    milled = np.logical_or.reduce(list(groups.values()))
-    return int((milled & (signed > limit)).sum())
+    tool = resolve_tool(CHAIN_SETTINGS["finish_tool"])
+    options = FinishOptions.from_mapping(CHAIN_SETTINGS["finish"])
+    paths = passage_paths(design.surfaces, tool.radius, options.point_spacing_mm,  # type: ignore[attr-defined]
+                          scallop_stepover(tool.radius, options.scallop_mm), hub=False,
+                          reach=tool.flute_length - tool.radius)
+    path = next(p for p in paths if p.name == "p0.blade.blade0.pressure.04")
+    i = len(path.centre) // 2
+    normal = path.normal[i]
+    ruling = path.reference_axis[i] - (path.reference_axis[i] @ normal) * normal
+    ruling /= np.linalg.norm(ruling)
+    frame = np.eye(4)
+    frame[:3, 0], frame[:3, 1], frame[:3, 2] = normal, ruling, np.cross(normal, ruling)
+    frame[:3, 3] = path.centre[i] + (2.75 - tool.radius) * normal + 11.0 * ruling
+    lump = trimesh.creation.box(extents=[2.5, 10.0, 4.0], transform=frame)
+    mesh = design.mesh()  # type: ignore[attr-defined]
+    both = trimesh.util.concatenate([mesh, lump])
+    assert isinstance(both, trimesh.Trimesh)
+    stock = Stock.from_mesh(np.asarray(both.vertices), np.asarray(both.faces), 0.5)
+    return stock.save(folder / "stock.npz"), np.asarray(lump.vertices)
 
 
-@pytest.mark.slow
-def test_rough_stock_beyond_the_threshold_gets_the_rest_operation(chain_small: Path,
-                                                                  tmp_path: Path) -> None:
-    """With a threshold below what roughing leaves, the finish stage plans the rest
-    operation there, verifies it, finishes against what it left; the post stage writes
-    its programs between roughing and finishing and the verify stage runs them."""
-    from cam.run import run_chain
+def test_the_rest_operation_cuts_where_the_stock_left_finishing_short(tmp_path: Path) -> None:
+    """A lump of stock beyond the threshold blocks finishing's neck: finishing leaves
+    postures out there; the rest operation is planned only near the lump, verified,
+    and finishing planned again (those passes only) reaches the points or names them."""
+    from cam.finishing.command import run_finish
+    from cam.run.rest import REST_VERIFY, finish_with_rest
+    from cam.run.rough_stock import RoughStock
+    from cam.run.settings import RunSettings
+    from cam.run.stages import Context, finish_options
+    from cam.verify.deviation import DesignDistance
+    from geometry.impeller import Impeller
+    from postproc.apt import read_apt
 
-    default = json.loads((chain_small / "rest/rest.json").read_text())
-    assert default["enabled"] and default["threshold_mm"] == 1.0
+    design = Impeller.from_spec(SMALL_SPEC)
+    mesh = design.mesh()
+    distance = DesignDistance(np.asarray(mesh.vertices, np.float64),
+                              np.asarray(mesh.faces, np.int64))
     out = tmp_path / "out"
-    shutil.copytree(chain_small, out)
-    settings = {**CHAIN_SETTINGS, "finish": {**CHAIN_SETTINGS["finish"],
-                                             "rest_threshold_mm": 0.3}}
-    try:
-        run_chain(SMALL_SPEC, CHAIN_MACHINE, out, start="finish", progress=False, **settings)
-    except RuntimeError as error:
-        if "cam.report" not in str(error):
-            raise
+    (out / "rough").mkdir(parents=True)
+    (out / "verify" / "rough").mkdir(parents=True)
+    stock, lump = _lumped_stock(design, distance, out / "verify" / "rough")
+    eta = 0.3
+    (out / "rough" / "rough.json").write_text(json.dumps(
+        {"finishing_allowance_mm": eta, "options": {"scallop_mm": 1.0}}))
+    run_settings = RunSettings(rough_tool="ball6", finish_tool=CHAIN_SETTINGS["finish_tool"],
+                           verify_resolution_mm=0.5,
+                           finish={**CHAIN_SETTINGS["finish"], "passages": 1})
+    ctx = Context(SMALL_SPEC, CHAIN_MACHINE, out, run_settings)
+    runs: list[tuple[dict[str, object], PlanMemo]] = []
+
+    def finish(stock: Path, memo: PlanMemo) -> dict[str, object]:
+        document = run_finish(SMALL_SPEC, CHAIN_MACHINE, run_settings.finish_tool, out / "finish",
+                              options=FinishOptions.from_mapping(finish_options(ctx)),
+                              progress=False, plots=False, stock=stock, design=design,
+                              design_distance=distance, memo=memo)
+        runs.append((document, memo))
+        return document
+
+    final = finish_with_rest(ctx, RoughStock(stock, design, distance), finish)
     rest = json.loads((out / "rest/rest.json").read_text())
-    assert rest["planned"] and rest["samples_over"] > 0 and rest["operations"]
-    document = json.loads((out / "rest/finish.json").read_text())
-    assert document["options"]["allowance_mm"] == rest["finishing_allowance_mm"]
-    assert document["summary"]["collisions"] == 0
-    assert document["summary"]["motion_collisions"] == 0
-    assert document["link_collisions"] == 0
-    finish = json.loads((out / "finish/finish.json").read_text())
-    assert finish["stock"]["source"].endswith("verify/rest/stock.npz")
-    counts = json.loads((out / "verify/rest/verify.json").read_text())["event_counts"]
+    assert rest["planned"] and rest["stock_left_out_points"] > 0, rest
+    assert len(runs) == 2  # finishing ran again against the rest stock
+    (first, _), (_, again) = runs
+    # the stock left postures out only near the lump: every one the trigger took
+    span = rest["span_mm"]
+    for entry in first["cut_short"]:  # type: ignore[attr-defined]
+        if entry["path"] in rest["stock_left_out_passes"]:
+            centres = np.asarray(entry["centres_mm"])
+            near = np.linalg.norm(centres[:, None] - lump[None], axis=2).min(axis=1)
+            assert (near <= span + 5.0).any()
+    # the rest operation cuts only near the lump (reach + PAD points + the lump's size)
+    from cam.tools import resolve_tool
+
+    radius = resolve_tool(CHAIN_SETTINGS["finish_tool"]).radius
+    cuts: list[np.ndarray] = []
+    for name in rest["operations"]:
+        for toolpath in read_apt(out / "rest" / f"rest_{name}.apt"):
+            cut = ~toolpath.link & (toolpath.feed > 0)
+            cuts.append(toolpath.tip[cut] + radius * toolpath.axis[cut])
+    cut_centres = np.vstack(cuts)
+    middle = lump.mean(axis=0)
+    bound = (rest["reach_mm"] + (PAD + 1) * CHAIN_SETTINGS["finish"]["point_spacing_mm"]
+             + float(np.linalg.norm(lump - middle, axis=1).max()))
+    far = np.linalg.norm(cut_centres - middle, axis=1)
+    assert np.percentile(far, 95) <= bound, (np.percentile(far, 95), bound)
+    assert rest["points"] < 0.25 * first["summary"]["points"]  # type: ignore[index]
+    counts = json.loads((out / REST_VERIFY / "verify.json").read_text())["event_counts"]
     for kind in ("holder_collision", "gouge", "overtravel", "rapid_in_stock"):
         assert counts[kind] == 0, (kind, counts)
-    # the rest operation brings the samples beyond the threshold down where it cuts
-    limit = rest["limit_mm"]
-    after_rest = _over(out, "verify/rest/stock.npz", limit)
-    assert rest["points"] > 0 and after_rest < rest["samples_over"]
-    post = json.loads((out / "nc/post.json").read_text())
-    ops = [p["operation"] for p in post["programs"]]
-    first, last = ops.index("rest"), len(ops) - 1 - ops[::-1].index("rest")
-    assert set(ops[:first]) == {"rough"} and set(ops[first:last + 1]) == {"rest"}
-    assert set(ops[last + 1:]) == {"finish"}
-    motion = json.loads((out / "motion/motion.json").read_text())
-    assert any(p["operation"] == "rest" and p["cycle_time_s"] > 0
-               for p in motion["programs"])
-    counts = json.loads((out / "verify/finish/verify.json").read_text())["event_counts"]
-    for kind in ("holder_collision", "gouge", "overtravel", "rapid_in_stock"):
-        assert counts[kind] == 0, (kind, counts)
-    # finishing reaches what the rest operation brought down, or names what it leaves
-    finished = _over(out, "verify/finish/stock.npz", limit)
-    assert finished <= after_rest
-    assert finished == 0 or finish["cut_short"], finished
+    # finishing against the rest stock: only the passes the trigger named planned anew
+    assert final["stock"]["source"].endswith("verify/rest/stock.npz")  # type: ignore[index]
+    assert rest["replanned_passes"] == len(rest["stock_left_out_passes"])
+    assert again.recalled > 0 and rest["recalled_plans"] == again.recalled
+    before = {e["path"]: len(e["left_out"]) for e in first["cut_short"]}  # type: ignore[attr-defined]
+    after = {e["path"]: len(e["left_out"]) for e in final["cut_short"]}  # type: ignore[attr-defined]
+    replanned = set(rest["stock_left_out_passes"])
+    assert sum(after.get(p, 0) for p in replanned) < sum(before[p] for p in replanned)
+    for name in set(before) - replanned:  # the others keep their plans
+        assert after.get(name) == before[name]
+    assert rest["left_out_after"]["all"] == sum(after.values())
