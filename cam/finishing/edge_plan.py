@@ -106,6 +106,7 @@ def _plan_level(level: EdgeLevel, passage: int, pitch: float, tool: Tool, kins: 
     """
     pieces: list[PathResult] = []
     lost = np.zeros(0, dtype=np.intp)
+    causes: list[str | None] = []  # what the points left out meet (finish_runs)
     low = 0
     rung = first
     witness: int | None = None
@@ -120,11 +121,11 @@ def _plan_level(level: EdgeLevel, passage: int, pitch: float, tool: Tool, kins: 
                 witness = found
                 continue
         pieces, lost = finish_runs(path, tool, kins, scene, options, surfaces,
-                                   accept=lambda piece: not _low_lean(piece))
+                                   accept=lambda piece: not _low_lean(piece), causes=causes)
         low = sum(_low_lean(piece) for piece in pieces)
         if not low and not any(piece.interference.interfering_points.size for piece in pieces):
             break
-    return pieces, rung, low, (cut_short_entry(path, lost) if lost.size else None)
+    return pieces, rung, low, (cut_short_entry(path, lost, causes) if lost.size else None)
 
 
 def plan_edges(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,

@@ -180,15 +180,16 @@ def _finish_all(base: list[CutterPath], surfaces: ImpellerSurfaces, tool: Tool,
         key = path.name.split(".", 1)[1]  # the pass, whatever the passage
         known = None if memo is None else memo.recall(tool.name, path.name)
         if known is None:
-            known = finish_runs(path, tool, kins, scene, options, surfaces,
-                                hint=hints.get(key))
+            causes: list[str | None] = []
+            known = (*finish_runs(path, tool, kins, scene, options, surfaces,
+                                  hint=hints.get(key), causes=causes), causes)
             if memo is not None:
                 memo.record(tool.name, path.name, known)
-        pieces, lost = known
+        pieces, lost, why = known
         hints[key] = pieces[0].step_hint if len(pieces) == 1 and not lost.size else None
         results += pieces
         if lost.size:
-            cut_short.append(cut_short_entry(path, lost))
+            cut_short.append(cut_short_entry(path, lost, why))
         if progress is not None:
             progress(i + 1, len(ordered), path.name)
     return FinishResult(results, tool, options, scene_source, extra={"cut_short": cut_short})

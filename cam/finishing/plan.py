@@ -459,15 +459,16 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
         key = path.name.split(".", 1)[1]
         known = None if memo is None else memo.recall(tool.name, path.name)
         if known is None:
-            known = finish_runs(path, tool, kins, scene, options, surfaces,
-                                hint=hints.get(key))
+            causes: list[str | None] = []
+            known = (*finish_runs(path, tool, kins, scene, options, surfaces,
+                                  hint=hints.get(key), causes=causes), causes)
             if memo is not None:
                 memo.record(tool.name, path.name, known)
-        pieces, lost = known
+        pieces, lost, why = known
         results += pieces
         hints[key] = pieces[0].step_hint if len(pieces) == 1 and not lost.size else None
         if lost.size:
-            cut_short.append(cut_short_entry(path, lost))
+            cut_short.append(cut_short_entry(path, lost, why))
         if progress is not None:
             progress(i + 1, len(ordered), path.name)
     extra: dict[str, Any] = {"cut_short": cut_short}

@@ -115,9 +115,9 @@ class RestTrim:
     passages : int
         Number of passages.
     blocked : (m, 3) float64 or None
-        Ball centres (passage 0's frame) of finishing postures the stock blocks
-        (``rest_blocked.blocked_centres``): only points within ``span`` of one are
-        kept; None: no such condition.
+        Ball centres (passage 0's frame) of the postures finishing left out because
+        of the stock (``rest_trigger.stock_left_out``): only points within ``span``
+        of one are kept; None: no such condition.
     span : float
         Distance from a blocked centre within which points are kept, mm.
     """

@@ -4,11 +4,14 @@ Finishing plans against the verified rough stock first (``cam.finishing.command.
 run_finish``); where its neck, shank or holder would meet that stock, it leaves the
 postures out and names them (finish.json ``cut_short``: pass, indices, ball centres).
 Some are left out for other reasons (the design: a fillet corner, a trailing edge the
-ball cannot lean into; the machine), which a rest operation does not change. A
-left-out posture is taken as **left out because of the stock** when rough stock
-beyond the rest limit (``eta + rest_threshold_mm`` from the design on a milled face:
-``rest.rest_samples``) lies within ``span`` of its ball centre -- the tool's reach,
-flute length plus ball radius: the material its neck meets. ``stock_left_out``
+ball cannot lean into; the machine; a posture rule), which a rest operation does not
+change. A left-out posture is taken as **left out because of the stock** when, in its
+pass's plan, it meets the stock (and neither the design nor the machine: cut_short
+``causes``, ``pieces.finish_runs``) and rough stock beyond the rest limit
+(``eta + rest_threshold_mm`` from the design on a milled face: ``rest.rest_samples``)
+lies within ``span`` of its ball centre -- the tool's reach, flute length plus ball
+radius: the material its neck meets. (An entry without ``causes``, from an older
+finish.json, is judged by the distance alone.) ``stock_left_out``
 returns those postures' ball centres turned into passage 0 (the rest operation is
 planned on passage 0's passes and machined in every passage, ``rest.RestTrim``) and
 the names of their passes (finishing plans them again after the rest operation,
@@ -27,6 +30,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from cam.finishing.posture import rotate_about_z
+from cam.finishing.stock_clearance import STOCK_ROLE
 
 __all__ = ["StockLeftOut", "passage_of", "stock_left_out"]
 
@@ -68,7 +72,8 @@ def stock_left_out(cut_short: Sequence[dict[str, Any]], samples: NDArray[np.floa
     Parameters
     ----------
     cut_short : sequence of dict
-        finish.json's ``cut_short`` entries (``path``, ``centres_mm``: (m, 3) mm).
+        finish.json's ``cut_short`` entries (``path``, ``centres_mm``: (m, 3) mm;
+        ``causes``: (m,) what each meets, ``"stock"`` counts).
     samples : (n, 3) float64
         Rough-stock samples beyond the rest limit (``rest.rest_samples``), mm.
     span : float
@@ -92,6 +97,8 @@ def stock_left_out(cut_short: Sequence[dict[str, Any]], samples: NDArray[np.floa
             continue
         distance, _ = tree.query(centres, distance_upper_bound=span)
         near = np.isfinite(distance)
+        if "causes" in entry:
+            near &= np.array([cause == STOCK_ROLE for cause in entry["causes"]], dtype=bool)
         if near.any():
             passes.add(str(entry["path"]))
             turn = -passage_of(str(entry["path"])) * pitch
