@@ -10,13 +10,15 @@ leaves out the postures there (finish.json ``cut_short``). The finish stage
 1. **finishes against the rough stock** (``run_finish``), every pass's plan kept
    (``cam.finishing.plan_memo``);
 2. **where**: takes its left-out postures that the rough stock caused
-   (``rest_trigger.stock_left_out``: verified rough-stock samples on the milled faces
-   -- ``cam.run.regions.face_groups``: blade sides, hub between the blades, fillets,
+   (``rest_trigger.stock_left_out``: in their pass's plan they meet the stock, not the
+   design or the machine, and verified rough-stock samples on the milled faces --
+   ``cam.run.regions.face_groups``: blade sides, hub between the blades, fillets,
    edges; not the lathe skin over the tips -- farther than ``eta + rest_threshold_mm``
    from the design lie within flute length + R of the ball centre; ``eta``: the
    finishing allowance of rough.json). None: no rest operation, nothing written but
-   ``rest/rest.json``; roughing leaves more than its allowance in many places where
-   finishing copes (nine_blade), and those call for nothing;
+   ``rest/rest.json`` (the stock is not even measured when no left-out posture meets
+   it); roughing leaves more than its allowance in many places where finishing copes
+   (nine_blade), and those call for nothing;
 3. **plans the rest operation** (``plan_rest``): the five-axis finishing planner with
    the finishing tool, the finish stage's clearances from the design and from the
    rough stock, ball centres ``R + eta`` from the design
@@ -235,7 +237,7 @@ def plan_rest(ctx: Context, rough: RoughStock, finished: dict[str, Any]) -> Rest
     """
     from cam.finishing.command import run_finish
     from cam.finishing.options import FinishOptions, scallop_stepover
-    from cam.run.rest_trigger import stock_left_out
+    from cam.run.rest_trigger import meets_stock, stock_left_out
     from cam.tools import resolve_tool
 
     folder, verified = ctx.out / REST, ctx.out / REST_VERIFY
@@ -253,7 +255,7 @@ def plan_rest(ctx: Context, rough: RoughStock, finished: dict[str, Any]) -> Rest
                               "left_out_before": _by_passage(cut_short),
                               "planned": False}
     nothing = RestPlan(rough.path, frozenset())
-    if not finish.rest_machining or not cut_short:
+    if not finish.rest_machining or not meets_stock(cut_short):
         _write_record(folder, record)
         return nothing
     samples = _rough_samples(ctx, rough, limit, record)

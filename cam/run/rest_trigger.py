@@ -32,7 +32,7 @@ from scipy.spatial import cKDTree
 from cam.finishing.posture import rotate_about_z
 from cam.finishing.stock_clearance import STOCK_ROLE
 
-__all__ = ["StockLeftOut", "passage_of", "stock_left_out"]
+__all__ = ["StockLeftOut", "meets_stock", "passage_of", "stock_left_out"]
 
 _PASSAGE = re.compile(r"^p(\d+)\.")
 
@@ -41,6 +41,13 @@ def passage_of(name: str) -> int:
     """The passage of a pass named ``p<k>.<operation>...`` (0 if not so named)."""
     match = _PASSAGE.match(name)
     return int(match.group(1)) if match else 0
+
+
+def meets_stock(cut_short: Sequence[dict[str, Any]]) -> bool:
+    """Whether any left-out posture may meet the stock (a ``"stock"`` cause, or an
+    entry without ``causes``): if not, nothing calls for the rest operation and the
+    stock need not be measured."""
+    return any("causes" not in entry or STOCK_ROLE in entry["causes"] for entry in cut_short)
 
 
 @dataclass

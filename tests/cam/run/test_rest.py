@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from cam.finishing.options import FinishOptions
 from cam.finishing.plan_memo import PlanMemo
 from cam.run.rest import PAD, RestTrim, rest_samples
-from cam.run.rest_trigger import passage_of, stock_left_out
+from cam.run.rest_trigger import meets_stock, passage_of, stock_left_out
 from impeller_cam.errors import InputError
 from tests.cam.conftest import CHAIN_MACHINE, CHAIN_SETTINGS, SMALL_SPEC
 
@@ -113,6 +113,9 @@ def test_with_causes_only_postures_that_meet_the_stock_count() -> None:
     assert found.points == 1 and found.left_out == 4 and found.passes == {"p0.hub.03"}
     entry["causes"] = ["hub", None, "blade", "fillet"]
     assert stock_left_out([entry], samples, 12.0, math.pi / 3).points == 0
+    assert not meets_stock([entry])  # the stock need not even be measured
+    assert meets_stock([entry, _entry("p1.hub.03", [[0.0, 0.0, 0.0]])])  # no causes
+    assert not meets_stock([])
 
 
 @settings(max_examples=30, deadline=None)
