@@ -69,6 +69,8 @@ from postproc.kinematics import Kinematics
 from postproc.toolpath import Cutter, MoveKind, Toolpath
 
 if TYPE_CHECKING:
+    from cam.finishing.pieces import PassTrim
+    from cam.finishing.plan_memo import PlanMemo
     from cam.verify.deviation import DesignDistance
     from cam.verify.stock import Stock
     from geometry.impeller import Impeller
@@ -287,6 +289,8 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                progress: bool | None = None, fillet_tool: str | None = None,
                stock: str | Path | None = None, machine_obstacle: bool = True,
                design: Impeller | None = None, design_distance: DesignDistance | None = None,
+               keep: PassTrim | None = None, prefix: str = "finish",
+               memo: PlanMemo | None = None,
                **fields: Any) -> dict[str, Any]:
     """Five-axis finishing of an impeller: APT per operation, finish.json, plots.
 
@@ -331,6 +335,17 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
     design_distance : DesignDistance, optional
         The signed distance from ``design.mesh()``, already built (with ``stock``:
         the excess material's depth; default: built here).
+    keep : PassTrim, optional
+        The points of passage 0's junction, blade and hub passes to machine
+        (``plan_finishing``'s ``keep``; the chain's rest operation: where the rough
+        stock holds too much, ``cam.run.rest``); default all (or what the swarf
+        passes leave).
+    prefix : str
+        Name of the APT files, ``{prefix}_{operation}.apt`` (``"rest"``: the chain's
+        rest operation).
+    memo : PlanMemo, optional
+        Pass plans kept from an earlier run (recalled instead of planned) and where
+        this run's are recorded (``plan_memo``; the chain's rest operation).
     **fields
         Fields of ``FinishOptions`` (mm, deg) replacing those of ``options``, checked
         like a ``[machining.finish]`` table (unknown names refused).
@@ -402,13 +417,20 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         edges = None
         if opts.edge_passes:  # first: the point passes leave to them what they finish
             edges = plan_edges(surfaces, the_tool, kins, collision, opts, scene_source=scene,
-                               progress=report)
-        flank, plan_opts, keep = _swarf_setup(surfaces, the_tool, kins, collision, opts,
+                               progress=report, memo=memo)
+        flank, plan_opts, left = _swarf_setup(surfaces, the_tool, kins, collision, opts,
                                               scene, report, edges)
+        if left is not None:
+            if keep is not None:
+                raise InputError("a pass trim and swarf passes cannot be combined",
+                                 field="blade_strategy", value=opts.blade_strategy,
+                                 accepted="\"point\" or \"swarf\" with a pass trim")
+            keep = left
         reach = None if obstacle is None else partial(
             check_machine_reach, obstacle, the_tool, options=opts, machine=str(machine))
         result = plan_finishing(surfaces, the_tool, kins, collision, plan_opts,
-                                scene_source=scene, progress=report, keep=keep, before=reach)
+                                scene_source=scene, progress=report, keep=keep, before=reach,
+                                memo=memo)
         cut_short: list[dict[str, Any]] = list(result.extra.get("cut_short", []))
         result_kept = result.extra.get("kept")
         result = FinishResult(result.paths, the_tool, opts, scene)
@@ -428,7 +450,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
             result = FinishResult([*result.paths, *edges.paths], the_tool, opts, scene)
         if fillet is not None:
             pencil = plan_fillet(surfaces, fillet, the_tool.radius, kins, collision, opts,
-                                 scene_source=scene, progress=report)
+                                 scene_source=scene, progress=report, memo=memo)
             toolpaths.update(finish_toolpaths(pencil, surfaces, collision, kins))
             tools.update({op: fillet for op in pencil.operations()})
             cut_short += pencil.extra["cut_short"]
@@ -446,9 +468,9 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
     with staged_directory(out) as stage:
         operations = {}
         for op, (toolpath, air, links) in toolpaths.items():
-            name = f"finish_{op}.apt"
+            name = f"{prefix}_{op}.apt"
             write_apt(stage / name, [toolpath],
-                      header=f"impeller-cam finish: {op}, tool {tools[op].name}")
+                      header=f"impeller-cam {prefix}: {op}, tool {tools[op].name}")
             operations[op] = {"apt": name, "tool": _tool_entry(tools[op]),
                               "paths": sum(e["operation"] == op for e in entries),
                               "poses": len(toolpath), "link_poses": int(air.sum()),

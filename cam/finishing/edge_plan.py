@@ -44,6 +44,7 @@ from cam.finishing.options import FinishOptions, scallop_stepover
 from cam.finishing.paths import CutterPath, rotate_path
 from cam.finishing.pieces import cut_short_entry, finish_runs
 from cam.finishing.plan import FinishResult, PathResult
+from cam.finishing.plan_memo import PlanMemo
 from cam.finishing.posture import initial_axes
 from cam.tools import Tool
 from geometry.surfaces import ImpellerSurfaces
@@ -105,6 +106,7 @@ def _plan_level(level: EdgeLevel, passage: int, pitch: float, tool: Tool, kins: 
     """
     pieces: list[PathResult] = []
     lost = np.zeros(0, dtype=np.intp)
+    causes: list[str | None] = []  # what the points left out meet (finish_runs)
     low = 0
     rung = first
     witness: int | None = None
@@ -119,16 +121,17 @@ def _plan_level(level: EdgeLevel, passage: int, pitch: float, tool: Tool, kins: 
                 witness = found
                 continue
         pieces, lost = finish_runs(path, tool, kins, scene, options, surfaces,
-                                   accept=lambda piece: not _low_lean(piece))
+                                   accept=lambda piece: not _low_lean(piece), causes=causes)
         low = sum(_low_lean(piece) for piece in pieces)
         if not low and not any(piece.interference.interfering_points.size for piece in pieces):
             break
-    return pieces, rung, low, (cut_short_entry(path, lost) if lost.size else None)
+    return pieces, rung, low, (cut_short_entry(path, lost, causes) if lost.size else None)
 
 
 def plan_edges(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                scene: CollisionScene, options: FinishOptions, *, scene_source: str,
-               progress: Callable[[int, int, str], None] | None = None) -> FinishResult:
+               progress: Callable[[int, int, str], None] | None = None,
+               memo: PlanMemo | None = None) -> FinishResult:
     """Finish the passes round the blade edges of every passage with ``tool``.
 
     Parameters
@@ -136,8 +139,8 @@ def plan_edges(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     surfaces : ImpellerSurfaces
     tool : Tool
         The blade and hub finishing ball (span levels at its scallop stepover).
-    kins, scene, options, scene_source, progress
-        As ``plan.plan_finishing``.
+    kins, scene, options, scene_source, progress, memo
+        As ``plan.plan_finishing`` (a level of a passage is recalled as a whole).
 
     Returns
     -------
@@ -160,8 +163,14 @@ def plan_edges(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     done = 0
     for k in range(count):
         for i, level in enumerate(levels):
-            pieces, rung, low, short = _plan_level(level, k, pitch, tool, kins, scene,
-                                                   options, surfaces, start[i])
+            name = rotate_path(level.path, k, pitch).name if k else level.path.name
+            known = None if memo is None else memo.recall(tool.name, name)
+            if known is None:
+                known = _plan_level(level, k, pitch, tool, kins, scene, options, surfaces,
+                                    start[i])
+                if memo is not None:
+                    memo.record(tool.name, name, known)
+            pieces, rung, low, short = known
             start[i] = rung  # the other passages are near rotations: start there
             for piece in pieces:
                 report.lean_deg[piece.path.name] = LEAN_LADDER_DEG[rung]

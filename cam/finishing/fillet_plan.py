@@ -37,6 +37,7 @@ from cam.finishing.options import FinishOptions
 from cam.finishing.paths import CutterPath, rotate_path
 from cam.finishing.pieces import cut_short_entry, finish_pieces, finish_runs, finish_trimmed
 from cam.finishing.plan import FinishResult, PathResult
+from cam.finishing.plan_memo import PlanMemo
 from cam.tools import DEFAULT_LIBRARY, Tool, load_tool_library
 from geometry.surfaces import ImpellerSurfaces
 from impeller_cam.errors import InputError
@@ -129,7 +130,8 @@ def neck_lean(tool: Tool, clearance: float) -> float:
 
 def plan_fillet(surfaces: ImpellerSurfaces, tool: Tool, main_radius: float, kins: Kinematics,
                 scene: CollisionScene, options: FinishOptions, *, scene_source: str,
-                progress: Callable[[int, int, str], None] | None = None) -> FinishResult:
+                progress: Callable[[int, int, str], None] | None = None,
+                memo: PlanMemo | None = None) -> FinishResult:
     """Finish the fillet pencil passes of every passage with ``tool``.
 
     Parameters
@@ -140,7 +142,7 @@ def plan_fillet(surfaces: ImpellerSurfaces, tool: Tool, main_radius: float, kins
     main_radius : float
         Ball radius of the blade and hub finishing, mm (how far beyond the fillet the
         passes go, ``fillet_paths``).
-    kins, scene, options, scene_source, progress
+    kins, scene, options, scene_source, progress, memo
         As ``plan.plan_finishing`` (the same options: scallop, spacing, rules).
 
     Returns
@@ -152,13 +154,14 @@ def plan_fillet(surfaces: ImpellerSurfaces, tool: Tool, main_radius: float, kins
     base = fillet_passes(surfaces, tool.radius, main_radius, options.scallop_mm,
                          options.point_spacing_mm,
                          lean=neck_lean(tool, options.clearance_mm))
-    return _finish_all(base, surfaces, tool, kins, scene, options, scene_source, progress)
+    return _finish_all(base, surfaces, tool, kins, scene, options, scene_source, progress,
+                       memo)
 
 
 def _finish_all(base: list[CutterPath], surfaces: ImpellerSurfaces, tool: Tool,
                 kins: Kinematics, scene: CollisionScene, options: FinishOptions,
-                scene_source: str, progress: Callable[[int, int, str], None] | None
-                ) -> FinishResult:
+                scene_source: str, progress: Callable[[int, int, str], None] | None,
+                memo: PlanMemo | None = None) -> FinishResult:
     """Every passage's rotation of ``base``, each path finished (``finish_runs``).
 
     As ``plan.plan_finishing``: the same pass in the previous passage hands on its
@@ -175,12 +178,18 @@ def _finish_all(base: list[CutterPath], surfaces: ImpellerSurfaces, tool: Tool,
     hints: dict[str, StepHint | None] = {}
     for i, path in enumerate(ordered):
         key = path.name.split(".", 1)[1]  # the pass, whatever the passage
-        pieces, lost = finish_runs(path, tool, kins, scene, options, surfaces,
-                                   hint=hints.get(key))
+        known = None if memo is None else memo.recall(tool.name, path.name)
+        if known is None:
+            causes: list[str | None] = []
+            known = (*finish_runs(path, tool, kins, scene, options, surfaces,
+                                  hint=hints.get(key), causes=causes), causes)
+            if memo is not None:
+                memo.record(tool.name, path.name, known)
+        pieces, lost, why = known
         hints[key] = pieces[0].step_hint if len(pieces) == 1 and not lost.size else None
         results += pieces
         if lost.size:
-            cut_short.append(cut_short_entry(path, lost))
+            cut_short.append(cut_short_entry(path, lost, why))
         if progress is not None:
             progress(i + 1, len(ordered), path.name)
     return FinishResult(results, tool, options, scene_source, extra={"cut_short": cut_short})

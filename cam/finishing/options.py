@@ -63,6 +63,18 @@ class FinishOptions:
         the spacing is ``point_spacing_mm``.
     scallop_mm : float
         Allowed scallop height of the blade-side and hub passes, mm.
+    allowance_mm : float
+        Material the junction, blade and hub passes leave on the faces, mm: their
+        ball centres run ``R + allowance_mm`` from the design (0: finishing; > 0: a
+        semi-finish, e.g. the chain's rest operation, ``cam.run.rest``).
+    rest_machining : bool
+        Chain only (``cam.run.rest``): where finishing left postures out near verified
+        rough stock more than ``rest_threshold_mm`` beyond the finishing allowance,
+        semi-finish there and finish those passes again (false: finishing meets the
+        rough stock as it is).
+    rest_threshold_mm : float
+        Chain only: rough-stock material beyond the finishing allowance that, near
+        postures finishing left out, calls for the rest operation, mm.
     c_tilt_deg : float
         Initial rotation of the ruling axis about the C (impeller) axis away from
         the blade, deg (the paper: "about 1 ~ 2 degrees").
@@ -185,6 +197,9 @@ class FinishOptions:
     point_spacing_mm: float = 0.25
     chordal_tolerance_mm: float | None = None
     scallop_mm: float = 0.02
+    allowance_mm: float = 0.0
+    rest_machining: bool = True
+    rest_threshold_mm: float = 1.0
     c_tilt_deg: float = 1.5
     min_normal_angle_deg: float = 5.0
     max_lead_deg: float = 45.0
@@ -234,7 +249,7 @@ class FinishOptions:
                     "tilt_search_step_deg", "repair_blend_mm", "motion_step_mm",
                     "motion_step_deg", "retract_clearance_mm", "link_step_deg", "departure_mm",
                     "tessellation_mm", "stock_voxel_mm", "swarf_ruling_step_mm",
-                    "max_axis_turn_deg_per_mm")
+                    "max_axis_turn_deg_per_mm", "rest_threshold_mm")
         for name in positive:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
@@ -243,7 +258,7 @@ class FinishOptions:
         for name in ("c_tilt_deg", "cutter_allowance_mm", "undriven_allowance_mm",
                      "clearance_mm", "repair_margin_mm",
                      "feed_link_mm", "stock_clearance_mm", "swarf_overcut_mm",
-                     "swarf_undercut_mm", "axis_rate_smoothing_mm"):
+                     "swarf_undercut_mm", "axis_rate_smoothing_mm", "allowance_mm"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
                 raise InputError("must be a number >= 0", field=name, value=value,

@@ -241,7 +241,8 @@ def _recovered(path: CutterPath, index: NDArray[np.intp], tool: Tool, kins: Kine
 
 def finish_runs(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionScene,
                 options: FinishOptions, surfaces: ImpellerSurfaces | None,
-                accept: Accept = None, hint: StepHint | None = None
+                accept: Accept = None, hint: StepHint | None = None,
+                causes: list[str | None] | None = None
                 ) -> tuple[list[PathResult], NDArray[np.intp]]:
     """The clean pieces of a pass (module docstring) and the indices (into ``path``)
     of the points left out, sorted.
@@ -256,6 +257,10 @@ def finish_runs(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collision
         passes' least lean off the surface, ``edge_plan``).
     hint : StepHint, optional
         The same pass's remedy step in another passage (``plan.finish_path``).
+    causes : list, optional
+        Filled with what each point left out meets in the whole pass's plan (its
+        posture's ``hit_role``: a design face's role, ``"stock"``, ``"machine"``;
+        None: a rule, a motion or an open end's tail), one per ``lost`` point.
 
     Returns
     -------
@@ -294,6 +299,9 @@ def finish_runs(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collision
         piece.trimmed = 0
     if results:
         results[0].trimmed = len(path) - sum(len(piece.path) for piece in results)
+    if causes is not None:
+        roles = plan.interference.hit_role
+        causes[:] = [roles[i] if i < len(roles) else None for i in lost.tolist()]
     return results, lost
 
 
@@ -326,11 +334,16 @@ def finish_pieces(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collisi
     return finish_runs(path, tool, kins, scene, options, surfaces)[0]
 
 
-def cut_short_entry(path: CutterPath, lost: NDArray[np.intp]) -> dict[str, Any]:
+def cut_short_entry(path: CutterPath, lost: NDArray[np.intp],
+                    causes: list[str | None] | None = None) -> dict[str, Any]:
     """finish.json's record of the points of a pass that were left out (``cut_short``):
     the pass, their indices in it, their ball centres (mm) and blade parameter u;
-    ``dropped``: nothing of the pass is cut."""
-    return {"path": path.name, "operation": path.operation, "points": len(path),
-            "left_out": lost.tolist(), "dropped": len(lost) == len(path),
-            "centres_mm": np.round(path.centre[lost], 3).tolist(),
-            "curve_u": np.round(path.curve_u[lost], 4).tolist()}
+    ``dropped``: nothing of the pass is cut; ``causes`` (when given, ``finish_runs``):
+    what each meets."""
+    entry = {"path": path.name, "operation": path.operation, "points": len(path),
+             "left_out": lost.tolist(), "dropped": len(lost) == len(path),
+             "centres_mm": np.round(path.centre[lost], 3).tolist(),
+             "curve_u": np.round(path.curve_u[lost], 4).tolist()}
+    if causes is not None:
+        entry["causes"] = list(causes)
+    return entry

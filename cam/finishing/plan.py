@@ -55,6 +55,7 @@ from postproc.kinematics import Kinematics
 if TYPE_CHECKING:
     from cam.collision import CollisionScene
     from cam.finishing.pieces import PassTrim
+    from cam.finishing.plan_memo import PlanMemo
 
 __all__ = [
     "FinishResult",
@@ -385,8 +386,8 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                    scene: CollisionScene, options: FinishOptions, *, scene_source: str,
                    progress: Callable[[int, int, str], None] | None = None,
                    keep: PassTrim | None = None,
-                   before: Callable[[list[CutterPath]], object] | None = None
-                   ) -> FinishResult:
+                   before: Callable[[list[CutterPath]], object] | None = None,
+                   memo: PlanMemo | None = None) -> FinishResult:
     """Generate and finish every path of every passage (passage 0, then rotations).
 
     Parameters
@@ -413,6 +414,9 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     before : callable, optional
         Called with every path of every passage before any is finished (a quick
         check that may refuse the job: ``machine_reach.check_machine_reach``).
+    memo : PlanMemo, optional
+        Plans of passes kept from an earlier run, recalled by name instead of planned
+        again; what is planned is recorded (``plan_memo``; the chain's rest operation).
 
     Returns
     -------
@@ -425,7 +429,9 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
         raise InputError("five-axis finishing needs a ball-end mill", field="tool",
                          value=tool.name, accepted="a tool of type 'ball'")
     stepover = scallop_stepover(tool.radius, options.scallop_mm)
-    base = passage_paths(surfaces, tool.radius, options.point_spacing_mm, stepover,
+    # a semi-finish (allowance_mm > 0) offsets the ball centres by R + allowance
+    base = passage_paths(surfaces, tool.radius + options.allowance_mm,
+                         options.point_spacing_mm, stepover,
                          blade=options.blade_passes, hub=options.hub_passes,
                          reach=max(tool.flute_length - tool.radius, 0.0),
                          chordal=options.chordal_tolerance_mm)
@@ -454,12 +460,18 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     hints: dict[str, StepHint | None] = {}
     for i, path in enumerate(ordered):
         key = path.name.split(".", 1)[1]
-        pieces, lost = finish_runs(path, tool, kins, scene, options, surfaces,
-                                   hint=hints.get(key))
+        known = None if memo is None else memo.recall(tool.name, path.name)
+        if known is None:
+            causes: list[str | None] = []
+            known = (*finish_runs(path, tool, kins, scene, options, surfaces,
+                                  hint=hints.get(key), causes=causes), causes)
+            if memo is not None:
+                memo.record(tool.name, path.name, known)
+        pieces, lost, why = known
         results += pieces
         hints[key] = pieces[0].step_hint if len(pieces) == 1 and not lost.size else None
         if lost.size:
-            cut_short.append(cut_short_entry(path, lost))
+            cut_short.append(cut_short_entry(path, lost, why))
         if progress is not None:
             progress(i + 1, len(ordered), path.name)
     extra: dict[str, Any] = {"cut_short": cut_short}

@@ -131,32 +131,54 @@ def fillet_tool(ctx: Context) -> str | None:
 
 
 def finish_stage(ctx: Context) -> None:
-    """The rough programs verified (``verify_rough``), then five-axis finishing
-    (``run_finish``) with the finishing tool (``finish_options``) against that stock,
-    and the fillet pencil passes with ``fillet_tool``; both runs share one design (the
-    spec's impeller and its signed distance, built once)."""
+    """The rough programs verified (``verify_rough``), five-axis finishing (``run_finish``)
+    with the finishing tool (``finish_options``) against that stock and the fillet pencil
+    passes with ``fillet_tool``; where the stock left finishing postures out, the rest
+    operation (``cam.run.rest.plan_rest``: ``rest/``) and finishing again against the
+    stock it left, only those postures' passes planned anew (``plan_memo``). The runs
+    share one design (the spec's impeller and its signed distance, built once)."""
     from cam.finishing.command import run_finish
     from cam.finishing.options import FinishOptions
+    from cam.finishing.plan_memo import PlanMemo
+    from cam.run.rest import finish_with_rest
     from cam.run.rough_stock import verify_rough
 
     rough = verify_rough(ctx)
-    run_finish(ctx.spec, ctx.machine, ctx.settings.finish_tool, ctx.out / "finish",
-               options=FinishOptions.from_mapping(finish_options(ctx)), progress=False,
-               fillet_tool=fillet_tool(ctx), stock=rough.path, design=rough.design,
-               design_distance=rough.distance)
+
+    def finish(stock: Path, memo: PlanMemo) -> dict[str, Any]:
+        return run_finish(ctx.spec, ctx.machine, ctx.settings.finish_tool, ctx.out / "finish",
+                          options=FinishOptions.from_mapping(finish_options(ctx)),
+                          progress=False, fillet_tool=fillet_tool(ctx), stock=stock,
+                          design=rough.design, design_distance=rough.distance, memo=memo)
+
+    finish_with_rest(ctx, rough, finish)
 
 
 def apt_files(ctx: Context) -> list[tuple[str, str, str]]:
-    """``(operation, apt relative path, tool name)`` of every APT file, machining order."""
+    """``(operation, apt relative path, tool name)`` of every APT file, machining order
+    (rough, the rest operation's, finish)."""
     rough = read_json(ctx, "rough/rough.json", "rough")
     finish = read_json(ctx, "finish/finish.json", "finish")
     out = [("rough", f"rough/{op['apt']}", rough["tool"]["name"])
            for op in rough["operations"]]
-    ops = finish["operations"]
-    order = [op for op in FINISH_ORDER if op in ops] + sorted(set(ops) - set(FINISH_ORDER))
-    out += [("finish", f"finish/{ops[op]['apt']}", ops[op].get("tool", finish["tool"])["name"])
-            for op in order]
+    for stage, document in (("rest", rest_finish(ctx)), ("finish", finish)):
+        if document is None:
+            continue
+        ops = document["operations"]
+        order = [op for op in FINISH_ORDER if op in ops] + sorted(set(ops) - set(FINISH_ORDER))
+        out += [(stage, f"{stage}/{ops[op]['apt']}",
+                 ops[op].get("tool", document["tool"])["name"]) for op in order]
     return out
+
+
+def rest_finish(ctx: Context) -> dict[str, Any] | None:
+    """The rest operation's finish.json (``cam.run.rest``); None when it has none."""
+    path = ctx.out / "rest" / "finish.json"
+    if not path.is_file():
+        return None
+    data = json.loads(path.read_text(encoding="utf-8"))
+    assert isinstance(data, dict)
+    return data
 
 
 def known_collisions(finish: dict[str, Any]) -> list[str]:
@@ -192,7 +214,9 @@ def post_stage(ctx: Context) -> None:
     from postproc.posts import get_post
 
     files = apt_files(ctx)  # names the first stage whose outputs are missing
-    found = known_collisions(read_json(ctx, "finish/finish.json", "finish"))
+    rest = rest_finish(ctx)
+    found = known_collisions(read_json(ctx, "finish/finish.json", "finish")) + (
+        [] if rest is None else [f"rest {line}" for line in known_collisions(rest)])
     if found:
         shown = "; ".join(found[:10]) + (f"; and {len(found) - 10} more"
                                          if len(found) > 10 else "")
@@ -261,7 +285,8 @@ STAGE_FUNCTIONS: dict[str, Callable[[Context], None]] = {
 }
 #: Stage name -> what it writes (relative to the output folder).
 STAGE_FOLDERS: dict[str, tuple[str, ...]] = {
-    "geometry": ("geometry",), "rough": ("rough",), "finish": ("finish",), "post": ("nc",),
+    "geometry": ("geometry",), "rough": ("rough",), "finish": ("rest", "finish"),
+    "post": ("nc",),
     "verify": ("verify",), "motion": ("motion",), "report": ("report.html",),
 }
 

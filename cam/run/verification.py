@@ -7,10 +7,13 @@ are written together into ``verify/`` (all or nothing):
   allowance = finishing allowance + roughing scallop; a blank short of the design
   (``stock_short``: the blank cuts into the part somewhere) stops the stage with an
   ``InputError`` before any block is run, nothing written;
-* ``verify/finish``: the finish NC files, each with its tool (the finishing tool; the
+* ``verify/finish``: the rest operation's NC files (``cam.run.rest``, if any), then
+  the finish NC files, each with its tool (the finishing tool; the
   fillet program with the fillet tool), starting from the stock the rough run left
   (handed over in memory; ``verify/rough/stock.npz`` is that stock as saved);
   allowance = finishing scallop;
+* ``verify/rest``: the finish stage's verification of the rest programs on the rough
+  stock (``cam.run.rest``), kept as it was (the stock finishing planned against);
 * ``verify/regions.json``: the deviation of the rough and the finished stock per face
   face group (``cam.run.regions``): the acceptance numbers (every milled face: blade
   sides, hub, fillets, leading and trailing edges, within allowance + scallop +
@@ -68,6 +71,7 @@ def allowances(ctx: Context) -> dict[str, float]:
 
 def verify_chain(ctx: Context) -> dict[str, Any]:
     """Run both verifications and the region analysis; returns regions.json content."""
+    from cam.run.rest import REST_VERIFY
     from cam.run.rough_stock import DEVIATION, reusable_rough, stock_deviation
     from cam.tools import resolve_tool
     from cam.verify.command import VerifyOptions, run_verify
@@ -75,7 +79,8 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
     from cam.verify.stock import Stock
 
     rough = [ctx.out / p["nc"] for p in nc_programs(ctx, "rough")]
-    finish_entries = nc_programs(ctx, "finish")
+    # the rest operation's programs (cam.run.rest) run first, on the rough stock
+    finish_entries = nc_programs(ctx, "rest") + nc_programs(ctx, "finish")
     finish = [ctx.out / p["nc"] for p in finish_entries]
     # post.json names each program's tool; the settings give the arguments to load them
     arguments = {resolve_tool(a).name: a for a in (fillet_tool(ctx), ctx.settings.finish_tool)
@@ -93,6 +98,9 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
         # stage's run of the same rough programs is reused (cam/run/rough_stock.py);
         # one stock through both runs: the finish run continues the rough run's final
         # state in memory (verify/rough/stock.npz is that state, written once)
+        rest = ctx.out / REST_VERIFY  # the finish stage's run of the rest programs: kept
+        if rest.is_dir():
+            shutil.copytree(rest, stage / "rest", ignore=shutil.ignore_patterns("nc"))
         reused = reusable_rough(ctx)
         rough_deviation: Deviation | None
         if reused is not None:

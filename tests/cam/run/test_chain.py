@@ -81,7 +81,9 @@ def test_verify_renders_the_stock_after_the_last_program_only(chain_small: Path)
     """The report shows the stock after each run's last program; the chain does not
     render the state after each of its dozens of roughing programs."""
     for stage in ("rough", "finish"):
-        count = len(nc_of(chain_small, stage))
+        # the verify stage's finish run starts with the rest operation's programs
+        count = len(nc_of(chain_small, stage)) + (len(nc_of(chain_small, "rest"))
+                                                  if stage == "finish" else 0)
         pictures = sorted(p.name for p in (chain_small / "verify" / stage).glob("stock_*.png"))
         assert len(pictures) == 1 and pictures[0].startswith(f"stock_{count}_"), pictures
 
@@ -95,9 +97,15 @@ def test_post_json_lists_rough_then_finish_programs(chain_small: Path) -> None:
     rough = load(chain_small, "rough/rough.json")
     assert post["post"] == "linuxcnc"  # the machine's dialect
     ops = [p["operation"] for p in post["programs"]]
+    # the rest operation (cam.run.rest) between roughing and finishing, when planned;
     # finish: junction, blade, edge (round the leading edge), hub, then the fillet
     # pencil with the library's largest ball that fits the 1 mm fillet (ball2_taper)
-    assert ops == ["rough"] * len(rough["operations"]) + ["finish"] * 5
+    rest = load(chain_small, "rest/rest.json")
+    rest_ops = rest.get("operations", []) if rest["planned"] else []
+    assert ops == (["rough"] * len(rough["operations"]) + ["rest"] * len(rest_ops)
+                   + ["finish"] * 5)
+    assert [p["name"] for p in post["programs"] if p["operation"] == "rest"] == [
+        f"rest_{op}" for op in ("junction", "blade", "hub") if op in rest_ops]
     assert [p["name"] for p in post["programs"][-5:]] == [
         "finish_junction", "finish_blade", "finish_edge", "finish_hub", "finish_fillet"]
     for program in post["programs"]:
@@ -162,8 +170,10 @@ def test_finishing_plans_against_the_verified_rough_stock(chain_small: Path) -> 
     no path is left touching it, and the cutter's engagement is reported per path."""
     finish = load(chain_small, "finish/finish.json")
     stock = finish["stock"]
-    assert stock["source"].endswith("verify/rough/stock.npz")
-    rough = load(chain_small, "verify/rough/verify.json")
+    # after the rest operation (cam.run.rest), when it was planned, the stock it left
+    met = "rest" if load(chain_small, "rest/rest.json")["planned"] else "rough"
+    assert stock["source"].endswith(f"verify/{met}/stock.npz")
+    rough = load(chain_small, f"verify/{met}/verify.json")
     assert stock["stock_volume_mm3"] == pytest.approx(rough["remaining_volume_mm3"], abs=1e-3)
     assert stock["offset_mm"] == pytest.approx(0.3 + CHAIN_SETTINGS["rough"]["scallop_mm"])
     assert finish["options"]["stock_clearance_mm"] == pytest.approx(0.5)

@@ -1,0 +1,59 @@
+"""Plans of finishing passes kept from one run of the planner for the next.
+
+The chain's rest operation (``cam.run.rest``) plans finishing twice: once against the
+rough stock, and again, after the rest operation, against the stock it left -- but only
+the passes the rest operation was for (those with postures the rough stock blocked).
+Every other pass keeps its first plan: the rest operation only removes material, so a
+plan clean against the rough stock is clean against the rest stock (links, the
+engagement report and the APT files are made again from all the plans).
+
+``PlanMemo`` is that store: the planners (``plan.plan_finishing``,
+``edge_plan.plan_edges``, ``fillet_plan.plan_fillet``) ``recall`` a pass's plan by its
+tool and name (``p<k>.<operation>...``) and ``record`` what they plan. ``again(names)``
+is the memo for the next run: the same plans, ``names`` planned anew.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+__all__ = ["PlanMemo"]
+
+
+@dataclass
+class PlanMemo:
+    """Pass plans by ``(tool name, pass name)``.
+
+    Attributes
+    ----------
+    plans : dict
+        ``(tool name, pass name) -> plan`` (what the planner's loop made of the pass:
+        ``(pieces, lost)`` from ``pieces.finish_runs``, or an edge level's result).
+    replan : frozenset of str
+        Pass names never recalled (planned anew, their new plan recorded).
+    recalled : int
+        Plans handed out by ``recall``.
+    """
+
+    plans: dict[tuple[str, str], Any] = field(default_factory=dict)
+    replan: frozenset[str] = frozenset()
+    recalled: int = 0
+
+    def recall(self, tool: str, name: str) -> Any | None:
+        """The recorded plan of pass ``name`` with ``tool``; None: plan it."""
+        if name in self.replan:
+            return None
+        plan = self.plans.get((tool, name))
+        if plan is not None:
+            self.recalled += 1
+        return plan
+
+    def record(self, tool: str, name: str, plan: Any) -> None:
+        """Keep ``plan`` of pass ``name`` with ``tool``."""
+        self.plans[(tool, name)] = plan
+
+    def again(self, names: Iterable[str]) -> PlanMemo:
+        """A memo of the same plans in which the passes ``names`` are planned anew."""
+        return PlanMemo(self.plans, frozenset(names))
