@@ -31,7 +31,6 @@ from __future__ import annotations
 import json
 import math
 from contextlib import nullcontext
-from dataclasses import replace
 from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -40,7 +39,6 @@ import numpy as np
 import trimesh
 
 from cam.collision import CollisionScene
-from cam.finishing.edge_cover import EdgeCover, edge_cover_turns
 from cam.finishing.edge_plan import plan_edges
 from cam.finishing.fillet_plan import check_fillet_tool, plan_fillet
 from cam.finishing.linking import Envelope, Linker, LinkRules
@@ -58,9 +56,10 @@ from cam.finishing.stock_clearance import (
     excess_voxels,
     stock_blocked,
 )
+from cam.finishing.swarf_plan import swarf_setup
 from cam.tools import Tool, resolve_tool
 from geometry.spec import load_spec
-from geometry.surfaces import ImpellerSurfaces, build_surfaces, rotation_z
+from geometry.surfaces import ImpellerSurfaces, build_surfaces
 from impeller_cam.atomic import staged_directory, write_text_atomic
 from impeller_cam.errors import InputError
 from impeller_cam.progress import progress_bar
@@ -254,35 +253,6 @@ def _machine_entry(obstacle: MachineObstacle, result: FinishResult,
             "distance_queries": int(stats["distance_queries"])}
 
 
-def _swarf_setup(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
-                 collision: CollisionScene, opts: FinishOptions, scene: str,
-                 report: Any, edges: FinishResult | None = None
-                 ) -> tuple[FinishResult | None, FinishOptions, Any]:
-    """The checked swarf passes (None for ``blade_strategy = "point"``), the options of
-    the point milling (no blade passes for ``"swarf"``) and its ``keep``: the blade
-    passes cut to what the swarf passes leave (``"swarf_or_point"``; overlap: a
-    stepover across the rulings, a stepover and a ruling step along the passes) and to
-    what the planned ``edges`` of passage 0 leave, turned by ``edge_cover_turns``."""
-    if opts.blade_strategy == "point":
-        return None, opts, None
-    from cam.finishing.options import scallop_stepover
-    from cam.finishing.swarf_plan import plan_swarf, point_passes_left
-
-    flank = plan_swarf(surfaces, tool, kins, collision, opts, scene_source=scene,
-                       progress=report)
-    if opts.blade_strategy == "swarf":
-        return flank, replace(opts, blade_passes=False), None
-    stepover = scallop_stepover(tool.radius, opts.scallop_mm)
-    covered = None
-    if edges is not None:
-        balls = [r.tip + tool.radius * r.axis for r in edges.paths if r.path.passage == 0]
-        covered = EdgeCover([b @ rotation_z(k * surfaces.spec.pitch).T for k in
-                             edge_cover_turns(opts, surfaces.spec.blades) for b in balls],
-                            tool.radius, opts.scallop_mm)
-    return flank, opts, point_passes_left(flank.extra["swarf_walls"], stepover,
-                                          stepover + opts.swarf_ruling_step_mm, covered)
-
-
 def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
                options: FinishOptions | None = None,
                library: str | Path | None = None, scene: str = "solid", plots: bool = True,
@@ -418,7 +388,7 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
         if opts.edge_passes:  # first: the point passes leave to them what they finish
             edges = plan_edges(surfaces, the_tool, kins, collision, opts, scene_source=scene,
                                progress=report, memo=memo)
-        flank, plan_opts, left = _swarf_setup(surfaces, the_tool, kins, collision, opts,
+        flank, plan_opts, left = swarf_setup(surfaces, the_tool, kins, collision, opts,
                                               scene, report, edges)
         if left is not None:
             if keep is not None:

@@ -25,23 +25,24 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from cam.finishing.edge_cover import EdgeCover, edge_cover_turns
 from cam.finishing.flank_tool import FlankTool
 from cam.finishing.interference import check_path
-from cam.finishing.options import FinishOptions
+from cam.finishing.options import FinishOptions, scallop_stepover
 from cam.finishing.paths import CutterPath, Wall, passage_walls, rotate_path
 from cam.finishing.plan import FinishResult, PathResult, reversal_counts
 from cam.finishing.posture import angle_between
 from cam.finishing.reversals import SmoothingResult, reversal_points
 from cam.finishing.swarf_blade import BladeSwarfPass, plan_blade_side, side_segment
 from cam.tools import Tool
-from geometry.surfaces import ImpellerSurfaces
+from geometry.surfaces import ImpellerSurfaces, rotation_z
 from postproc.kinematics import Kinematics
 
 if TYPE_CHECKING:
     from cam.collision import CollisionScene
 
 __all__ = ["PointPassTrim", "SwarfWall", "plan_swarf", "point_passes_left", "swarf_check_text",
-           "swarf_report", "swarf_walls"]
+           "swarf_report", "swarf_setup", "swarf_walls"]
 
 Array = NDArray[np.float64]
 #: Check-and-drop rounds of the swarf postures of passage 0.
@@ -418,3 +419,29 @@ def swarf_check_text(surfaces: ImpellerSurfaces, tool: Tool, options: FinishOpti
             f"rulings reach {f['max_top_height_mm']:.1f} mm up the tool, "
             f"{100 * float(f['area_share']):.1f} % of the side")
     return "\n".join(lines) + "\n"
+
+
+def swarf_setup(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
+                collision: CollisionScene, opts: FinishOptions, scene: str,
+                report: Any, edges: FinishResult | None = None
+                ) -> tuple[FinishResult | None, FinishOptions, Any]:
+    """The checked swarf passes (None for ``blade_strategy = "point"``), the options of
+    the point milling (no blade passes for ``"swarf"``) and its ``keep``: the blade
+    passes cut to what the swarf passes leave (``"swarf_or_point"``; overlap: a
+    stepover across the rulings, a stepover and a ruling step along the passes) and to
+    what the planned ``edges`` of passage 0 leave, turned by ``edge_cover_turns``."""
+    if opts.blade_strategy == "point":
+        return None, opts, None
+    flank = plan_swarf(surfaces, tool, kins, collision, opts, scene_source=scene,
+                       progress=report)
+    if opts.blade_strategy == "swarf":
+        return flank, replace(opts, blade_passes=False), None
+    stepover = scallop_stepover(tool.radius, opts.scallop_mm)
+    covered = None
+    if edges is not None:
+        balls = [r.tip + tool.radius * r.axis for r in edges.paths if r.path.passage == 0]
+        covered = EdgeCover([b @ rotation_z(k * surfaces.spec.pitch).T for k in
+                             edge_cover_turns(opts, surfaces.spec.blades) for b in balls],
+                            tool.radius, opts.scallop_mm)
+    return flank, opts, point_passes_left(flank.extra["swarf_walls"], stepover,
+                                          stepover + opts.swarf_ruling_step_mm, covered)
