@@ -9,7 +9,8 @@ cutter off a face the pass does not drive. The splitter's outlet: the flutes of 
 last posture of a pressure-side blade pass reached 0.048 mm into the cut trailing
 edge next to the tip, the posture was accepted at 0.05, and the controller's joint
 interpolation made it 0.052 mm, a gouge over the verifier's 0.05 mm; the flutes of
-the topmost passes cut up to 0.044 mm into the blade tip faces.
+the topmost passes reached up to 0.047 mm into a wall at its tip corner, past the tip
+face (docs/finishing.md).
 
 ``DrivenScene`` wraps a pass's scene: the cutter is checked shrunk by the cutter
 allowance against the roles the pass drives (``driven_roles``) and by the smaller
