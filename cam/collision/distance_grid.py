@@ -219,6 +219,32 @@ class DistanceGrid:
         marked = np.ones(shape, dtype=bool)  # EDT measures the distance to False cells
         node = np.rint((points - origin) / spacing).astype(np.int64)
         marked[node[:, 0], node[:, 1], node[:, 2]] = False
+        return cls.from_marked(marked, covering_radius, origin, spacing, points.min(axis=0),
+                               points.max(axis=0), band, exact)
+
+    @classmethod
+    def from_marked(
+        cls,
+        marked: NDArray[np.bool_],
+        covering_radius: float,
+        origin: NDArray[np.float64],
+        spacing: float,
+        box_lo: NDArray[np.float64],
+        box_hi: NDArray[np.float64],
+        band: float,
+        exact: Callable[[NDArray[np.float64], float], NDArray[np.float64]] | None = None,
+    ) -> DistanceGrid:
+        """``from_samples`` with the samples' nodes already marked.
+
+        Parameters
+        ----------
+        marked : (nx, ny, nz) bool
+            False at the node nearest to each surface sample, True elsewhere.
+        covering_radius, origin, spacing, band, exact
+            As ``from_samples``.
+        box_lo, box_hi : (3,) float64
+            Bounding box of the samples, mm.
+        """
         distance = distance_transform(marked, spacing)
         loss = 0.5 * math.sqrt(3.0) * spacing + covering_radius
         bounds = distance - loss
@@ -231,13 +257,8 @@ class DistanceGrid:
             tight = exact(origin + spacing * ijk, reach)
             tight = np.where(np.isfinite(tight), tight, reach)
             bounds.ravel()[near] = np.maximum(bounds.ravel()[near], tight)
-        return cls(
-            (bounds - _F32_ALLOWANCE).astype(np.float32),
-            origin,
-            spacing,
-            points.min(axis=0),
-            points.max(axis=0),
-        )
+        bounds -= _F32_ALLOWANCE
+        return cls(bounds.astype(np.float32), origin, spacing, box_lo, box_hi)
 
     @classmethod
     def minimum(cls, grids: list[DistanceGrid]) -> DistanceGrid:
