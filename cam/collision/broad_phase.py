@@ -35,6 +35,10 @@ from cam.collision.triangle_bvh import TriangleBVH
 
 #: Grid nodes within this many grid spacings of the surface get exact distances.
 EXACT_BAND = 6.0
+#: The outer grid (``outer_grid``): spacing, margin beyond the surface and sample
+#: spacing, mm. The margin covers a tool's reach from a tip near the surface (the
+#: library's longest assemblies: about 150 mm).
+OUTER_SPACING, OUTER_MARGIN, OUTER_SAMPLES = 4.0, 160.0, 2.0
 
 
 def grid_frame(
@@ -79,6 +83,20 @@ def surface_grid(
                   box)
     return DistanceGrid.from_marked(marked, covering, origin, spacing, box[0], box[1],
                                     EXACT_BAND * spacing, bvh.distances)
+
+
+def outer_grid(tris: NDArray[np.float64]) -> DistanceGrid:
+    """A coarse distance grid of all ``(t, 3, 3)`` triangles reaching far beyond them.
+
+    The scene's grids reach ``grid_margin`` (10 mm) beyond the scene; beyond that
+    their bound is the distance to the scene's bounding box, which is loose around
+    a conical impeller (a holder above the nose is 20 mm from the box, 40 mm from
+    the part). This grid (``OUTER_SPACING``, ``OUTER_MARGIN``) gives a bound there
+    (``DistanceGrid.part_bounds(..., outer=)``); exact distances in its band.
+    """
+    bvh = TriangleBVH(tris)
+    origin, shape = grid_frame(tris.reshape(-1, 3), OUTER_SPACING, OUTER_MARGIN)
+    return surface_grid(bvh, OUTER_SAMPLES, origin, shape, OUTER_SPACING)
 
 
 def _sample_levels(tri: NDArray[np.float64], spacing: float

@@ -62,3 +62,32 @@ def test_band_distances_do_not_depend_on_the_point_order() -> None:
     near = np.isfinite(ordered)
     _, expected, _ = trimesh.proximity.closest_point(mesh, points[near][:400])
     np.testing.assert_allclose(ordered[near][:400], expected, atol=1e-9)
+
+
+def test_outer_grid_bounds_are_lower_bounds_and_tighter_far_out() -> None:
+    """Spheres far beyond the scene grid's frame: with the outer grid their bound is
+    still at most the true distance, never below the bound without it, and far
+    tighter than the bounding-box distance above a cone."""
+    from cam.collision.broad_phase import outer_grid
+
+    cone = trimesh.creation.cone(radius=40.0, height=30.0, sections=64)
+    tris = np.asarray(cone.vertices)[np.asarray(cone.faces)]
+    bvh = TriangleBVH(tris)
+    origin, shape = grid_frame(np.asarray(cone.vertices), 1.0, 10.0)
+    fine = surface_grid(bvh, 0.5, origin, shape, 1.0)
+    outer = outer_grid(tris)
+    rng = np.random.default_rng(5)
+    tip = rng.uniform([-60, -60, -20], [60, 60, 90], (400, 3))
+    axis = rng.normal(size=(400, 3))
+    axis /= np.linalg.norm(axis, axis=1)[:, None]
+    heights, radii = np.array([0.0, 30.0, 80.0]), np.array([2.0, 5.0, 20.0])
+    plain = fine.part_bounds(tip, axis, heights, radii)
+    both = fine.part_bounds(tip, axis, heights, radii, outer=outer)
+    centres = tip[:, None, :] + heights[None, :, None] * axis[:, None, :]
+    _, true, _ = trimesh.proximity.closest_point(cone, centres.reshape(-1, 3))
+    exact = (true.reshape(-1, 3) - radii).min(axis=1)
+    assert np.all(both >= plain) and np.all(both <= exact + 1e-9)
+    assert np.mean(both - plain) > 1.0  # the outer grid decides where the box cannot
+    # the early stop of the scan keeps its meaning: the first sphere at or below it
+    stopped = fine.part_bounds(tip, axis, heights, radii, 0.0, outer=outer)
+    np.testing.assert_array_equal(stopped > 0.0, both > 0.0)
