@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -34,6 +35,10 @@ from cam.collision.triangle_bvh import TriangleBVH
 
 #: Grid nodes within this many grid spacings of the surface get exact distances.
 EXACT_BAND = 6.0
+#: The outer grid (``outer_grid``): spacing, margin beyond the surface and sample
+#: spacing, mm. The margin covers a tool's reach from a tip near the surface (the
+#: library's longest assemblies: about 150 mm).
+OUTER_SPACING, OUTER_MARGIN, OUTER_SAMPLES = 4.0, 160.0, 2.0
 
 
 def grid_frame(
@@ -55,6 +60,11 @@ def surface_grid(
 ) -> DistanceGrid:
     """Distance grid of one mesh (its triangles in ``bvh``) on a given frame.
 
+    The grid is that of ``DistanceGrid.from_samples`` on ``surface_samples`` of the
+    triangles (the same nodes marked, the same bounding box, bit for bit), but the
+    samples are marked as they are made (``_mark_samples``) instead of first being
+    stored (millions of points for the large flat triangles of the back face).
+
     Parameters
     ----------
     bvh : TriangleBVH
@@ -65,13 +75,88 @@ def surface_grid(
     origin, shape, spacing
         The grid frame (see ``grid_frame``).
     """
-    tris = bvh.tris
-    points, covering = surface_samples(
-        tris.reshape(-1, 3), np.arange(3 * len(tris)).reshape(-1, 3), sample_spacing
-    )
-    return DistanceGrid.from_samples(
-        points, covering, origin, shape, spacing, EXACT_BAND * spacing, bvh.distances
-    )
+    tri = np.ascontiguousarray(bvh.tris, dtype=np.float64)
+    levels, covering = _sample_levels(tri, sample_spacing)
+    marked = np.ones(shape, dtype=bool)  # EDT measures the distance to False cells
+    box = np.empty((2, 3))
+    _mark_samples(tri, levels, np.asarray(origin, dtype=np.float64), float(spacing), marked,
+                  box)
+    return DistanceGrid.from_marked(marked, covering, origin, spacing, box[0], box[1],
+                                    EXACT_BAND * spacing, bvh.distances)
+
+
+def outer_grid(tris: NDArray[np.float64]) -> DistanceGrid:
+    """A coarse distance grid of all ``(t, 3, 3)`` triangles reaching far beyond them.
+
+    The scene's grids reach ``grid_margin`` (10 mm) beyond the scene; beyond that
+    their bound is the distance to the scene's bounding box, which is loose around
+    a conical impeller (a holder above the nose is 20 mm from the box, 40 mm from
+    the part). This grid (``OUTER_SPACING``, ``OUTER_MARGIN``) gives a bound there
+    (``DistanceGrid.part_bounds(..., outer=)``); exact distances in its band.
+    """
+    bvh = TriangleBVH(tris)
+    origin, shape = grid_frame(tris.reshape(-1, 3), OUTER_SPACING, OUTER_MARGIN)
+    return surface_grid(bvh, OUTER_SAMPLES, origin, shape, OUTER_SPACING)
+
+
+def _sample_levels(tri: NDArray[np.float64], spacing: float
+                   ) -> tuple[NDArray[np.int64], float]:
+    """Per triangle ``(t, 3, 3)`` the split count ``k`` of ``surface_samples``, and the
+    covering radius (mm)."""
+    edges = np.linalg.norm(tri[:, [1, 2, 0]] - tri, axis=2)
+    longest = edges.max(axis=1)
+    k = np.maximum(1, np.ceil(longest / spacing - 1e-12)).astype(np.int64)
+    covering = float((longest / k).max() / math.sqrt(3.0)) if len(k) else 0.0
+    return k, covering
+
+
+@numba.njit(cache=True, nogil=True)
+def _mark_samples(
+    tri: NDArray[np.float64],
+    levels: NDArray[np.int64],
+    origin: NDArray[np.float64],
+    spacing: float,
+    marked: NDArray[np.bool_],
+    box: NDArray[np.float64],
+) -> None:  # pragma: no cover - compiled
+    """Clear ``marked`` at the node nearest to each sample of ``surface_samples``.
+
+    The samples are the triangle corners and, for a triangle of level ``k > 1``,
+    ``base + (i / k) (b - base) + (j / k) (c - base)``, ``i + j <= k``, evaluated in
+    the same order as ``surface_samples`` (the same floating-point values).
+    ``box`` gets the samples' ``(min, max)`` per axis, mm.
+    """
+    for a in range(3):
+        box[0, a] = np.inf
+        box[1, a] = -np.inf
+    p = np.empty(3)
+    for t in range(tri.shape[0]):
+        level = levels[t]
+        for c in range(3):
+            _mark(tri[t, c, 0], tri[t, c, 1], tri[t, c, 2], origin, spacing, marked, box)
+        if level <= 1:
+            continue
+        for i in range(level + 1):
+            for j in range(level + 1 - i):
+                fa = i / level
+                fb = j / level
+                for a in range(3):
+                    base = tri[t, 0, a]
+                    p[a] = (base + fa * (tri[t, 1, a] - base)) + fb * (tri[t, 2, a] - base)
+                _mark(p[0], p[1], p[2], origin, spacing, marked, box)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _mark(x: float, y: float, z: float, origin: NDArray[np.float64], spacing: float,
+          marked: NDArray[np.bool_], box: NDArray[np.float64]) -> None:  # pragma: no cover
+    q = (x, y, z)
+    for a in range(3):
+        box[0, a] = min(box[0, a], q[a])
+        box[1, a] = max(box[1, a], q[a])
+    i = int(np.rint((x - origin[0]) / spacing))
+    j = int(np.rint((y - origin[1]) / spacing))
+    k = int(np.rint((z - origin[2]) / spacing))
+    marked[i, j, k] = False
 
 
 def surface_samples(

@@ -4,7 +4,9 @@ Two uses of ``body_distance.body_distances`` (GJK of the scene's triangles again
 the convex pieces of the posed tool meshes, all postures in one numba call):
 
 * **clearance** of shank+holder: the grid bound first (postures it proves beyond
-  the cap keep it, as before), then the kernel up to ``cap + BAND``. A converged
+  the cap keep it), then the bound with the scene's outer grid (postures it proves
+  beyond ``cap + BAND`` get ``cap``, the kernel's answer there), then the kernel up
+  to ``cap + BAND``. A converged
   interval with ``lower > BAND`` is the distance between the mesh surfaces, fcl's
   value (agreement measured within 1e-12 mm; the kernel's interval is at most
   ``GJK_TOLERANCE`` wide); nothing within ``cap + BAND`` gives the lower bound
@@ -90,6 +92,12 @@ def body_clearance(
         clear = scene.whole.part_bounds(tip, axis, heights, radii, cap)
         clear[body_hit] = 0.0
         todo = np.flatnonzero((clear <= cap) & ~body_hit)
+        # with the outer grid too (spheres beyond the scene grid's frame): nothing within
+        # cap + BAND, where the kernel would find nothing either and report ``cap``
+        far = scene.whole.part_bounds(tip[todo], axis[todo], heights, radii, cap + BAND,
+                                      outer=scene.outer)
+        clear[todo[far > cap + BAND]] = cap
+        todo = todo[far <= cap + BAND]
     roots = np.broadcast_to(scene.arrays.roots, (len(todo), len(scene.arrays.roots)))
     lower, upper = body_distances(scene.arrays.forest, roots, tip[todo], rot[todo],
                                   model.clear_pieces, scene.sections, cap + BAND)

@@ -150,6 +150,45 @@ def _part_bounds(
     return out
 
 
+@numba.njit(cache=True, nogil=True)
+def _part_bounds_outer(
+    bounds: NDArray[np.float32],
+    origin: NDArray[np.float64],
+    spacing: float,
+    box_lo: NDArray[np.float64],
+    box_hi: NDArray[np.float64],
+    outer: NDArray[np.float32],
+    outer_origin: NDArray[np.float64],
+    outer_spacing: float,
+    outer_lo: NDArray[np.float64],
+    outer_hi: NDArray[np.float64],
+    tip: NDArray[np.float64],
+    axis: NDArray[np.float64],
+    heights: NDArray[np.float64],
+    radii: NDArray[np.float64],
+    stop_below: float,
+) -> NDArray[np.float64]:  # pragma: no cover - compiled
+    """``_part_bounds`` with each centre's bound the larger of two grids' bounds."""
+    n = tip.shape[0]
+    out = np.empty(n)
+    for q in range(n):
+        lowest = np.inf
+        for s in range(heights.shape[0]):
+            h = heights[s]
+            x = tip[q, 0] + h * axis[q, 0]
+            y = tip[q, 1] + h * axis[q, 1]
+            z = tip[q, 2] + h * axis[q, 2]
+            b = max(point_lower_bound(bounds, origin, spacing, box_lo, box_hi, x, y, z),
+                    point_lower_bound(outer, outer_origin, outer_spacing, outer_lo,
+                                      outer_hi, x, y, z)) - radii[s]
+            if b < lowest:
+                lowest = b
+                if lowest <= stop_below:
+                    break
+        out[q] = lowest
+    return out
+
+
 class DistanceGrid:
     """Node lower bounds of the distance to a surface, on a fixed grid frame.
 
@@ -219,6 +258,32 @@ class DistanceGrid:
         marked = np.ones(shape, dtype=bool)  # EDT measures the distance to False cells
         node = np.rint((points - origin) / spacing).astype(np.int64)
         marked[node[:, 0], node[:, 1], node[:, 2]] = False
+        return cls.from_marked(marked, covering_radius, origin, spacing, points.min(axis=0),
+                               points.max(axis=0), band, exact)
+
+    @classmethod
+    def from_marked(
+        cls,
+        marked: NDArray[np.bool_],
+        covering_radius: float,
+        origin: NDArray[np.float64],
+        spacing: float,
+        box_lo: NDArray[np.float64],
+        box_hi: NDArray[np.float64],
+        band: float,
+        exact: Callable[[NDArray[np.float64], float], NDArray[np.float64]] | None = None,
+    ) -> DistanceGrid:
+        """``from_samples`` with the samples' nodes already marked.
+
+        Parameters
+        ----------
+        marked : (nx, ny, nz) bool
+            False at the node nearest to each surface sample, True elsewhere.
+        covering_radius, origin, spacing, band, exact
+            As ``from_samples``.
+        box_lo, box_hi : (3,) float64
+            Bounding box of the samples, mm.
+        """
         distance = distance_transform(marked, spacing)
         loss = 0.5 * math.sqrt(3.0) * spacing + covering_radius
         bounds = distance - loss
@@ -231,13 +296,8 @@ class DistanceGrid:
             tight = exact(origin + spacing * ijk, reach)
             tight = np.where(np.isfinite(tight), tight, reach)
             bounds.ravel()[near] = np.maximum(bounds.ravel()[near], tight)
-        return cls(
-            (bounds - _F32_ALLOWANCE).astype(np.float32),
-            origin,
-            spacing,
-            points.min(axis=0),
-            points.max(axis=0),
-        )
+        bounds -= _F32_ALLOWANCE
+        return cls(bounds.astype(np.float32), origin, spacing, box_lo, box_hi)
 
     @classmethod
     def minimum(cls, grids: list[DistanceGrid]) -> DistanceGrid:
@@ -260,6 +320,7 @@ class DistanceGrid:
         heights: NDArray[np.float64],
         radii: NDArray[np.float64],
         stop_below: float = -math.inf,
+        outer: DistanceGrid | None = None,
     ) -> NDArray[np.float64]:
         """Lower bound of the distance from sphere-covered parts to the surface.
 
@@ -272,12 +333,24 @@ class DistanceGrid:
         stop_below : float
             A posture's scan stops at the first sphere whose bound is at most
             this (its result is then that bound, not the minimum), mm.
+        outer : DistanceGrid, optional
+            A grid of the same surface on a larger (coarser) frame: each centre's
+            bound is the larger of the two (beyond this grid's frame, where its
+            bound is only the distance to the surface's bounding box).
 
         Returns
         -------
         (n,) float64
             ``min over spheres (d_lower(centre) - rho)``, mm.
         """
+        if outer is not None:
+            return np.asarray(_part_bounds_outer(
+                self.bounds, self.origin, self.spacing, self.box_lo, self.box_hi,
+                outer.bounds, outer.origin, outer.spacing, outer.box_lo, outer.box_hi,
+                np.ascontiguousarray(tip, dtype=np.float64),
+                np.ascontiguousarray(axis, dtype=np.float64),
+                np.ascontiguousarray(heights, dtype=np.float64),
+                np.ascontiguousarray(radii, dtype=np.float64), float(stop_below)))
         return np.asarray(
             _part_bounds(
                 self.bounds,

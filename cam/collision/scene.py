@@ -46,6 +46,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from cam.collision.broad_phase import (
     grid_frame,
+    outer_grid,
     surface_grid,
 )
 from cam.collision.clearance import body_clearance, settle_undecided
@@ -254,6 +255,9 @@ class CollisionScene:
             for role in self.roles
         }
         self.whole = DistanceGrid.minimum(list(self.grids.values()))
+        #: the whole scene on a coarse grid far beyond ``grid_margin`` (clearance bounds)
+        self.outer = outer_grid(np.concatenate([self.triangles[r].bvh.tris
+                                                for r in self.roles]))
         self.role_mask = (
             RoleMask(list(self.grids.values()), min(_MASK_LIMIT, grid_margin))
             if len(self.roles) <= 62

@@ -358,6 +358,11 @@ def _slabs(
     return tri_slab, node_slab
 
 
+#: Relative and absolute slack (mm) of the reach ``_distances_within`` carries from
+#: one point to the next, over the rounding of the distances.
+_REACH_SLACK = 1e-9
+
+
 @numba.njit(cache=True, nogil=True)
 def _distances_within(
     points: NDArray[np.float64],
@@ -380,8 +385,17 @@ def _distances_within(
     zero = np.zeros(3)
     root = int(np.int64(0))  # typed int64, not Literal[int](0): no second signature
     for q in range(points.shape[0]):
+        limit = reach
+        if q > 0 and out[q - 1] < reach:
+            # 1-Lipschitz: d(q) <= d(q-1) + |q - (q-1)|; a search within a reach just
+            # above that finds the same nearest triangle (the same value), sooner
+            # (consecutive points, e.g. grid nodes, are close)
+            step = math.sqrt((points[q, 0] - points[q - 1, 0]) ** 2
+                             + (points[q, 1] - points[q - 1, 1]) ** 2
+                             + (points[q, 2] - points[q - 1, 2]) ** 2)
+            limit = min(reach, (out[q - 1] + step) * (1.0 + _REACH_SLACK) + _REACH_SLACK)
         out[q] = nearest_within(
-            points[q, 0], points[q, 1], points[q, 2], reach, -1.0, tris, tri_centre,
+            points[q, 0], points[q, 1], points[q, 2], limit, -1.0, tris, tri_centre,
             tri_radius, tri_slab, node_lo, node_hi, node_slab, left, first, size, root, stack,
             lower, none, zero, zero, 0.0,
         )[0]
