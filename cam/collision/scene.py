@@ -35,9 +35,8 @@ catches the crossing within its stated bound).
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Iterator, Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import overload
 
 import fcl
 import numpy as np
@@ -52,6 +51,7 @@ from cam.collision.broad_phase import (
 from cam.collision.clearance import body_clearance, settle_undecided
 from cam.collision.distance_grid import DistanceGrid, RoleMask
 from cam.collision.exact_phase import HIT, SceneArrays, TriangleSet, classify_part
+from cam.collision.fcl_objects import InOrder, RoleObjects, check_meshes
 from cam.collision.narrow_phase import first_contacts
 from cam.collision.postures import (
     motion_bound,
@@ -133,62 +133,6 @@ class PostureReport:
         return self.collides | (self.clearance < min_clearance)
 
 
-class _RoleObjects(Mapping[str, fcl.CollisionObject]):
-    """fcl objects of the scene meshes by role, each built on first access."""
-
-    def __init__(self, meshes: Mapping[str, trimesh.Trimesh]) -> None:
-        self._meshes = meshes
-        self._built: dict[str, fcl.CollisionObject] = {}
-
-    def __getitem__(self, role: str) -> fcl.CollisionObject:
-        if role not in self._built:
-            mesh = self._meshes[role]
-            self._built[role] = fcl.CollisionObject(bvh_model(mesh.vertices, mesh.faces),
-                                                    fcl.Transform())
-        return self._built[role]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._meshes)
-
-    def __len__(self) -> int:
-        return len(self._meshes)
-
-
-class _InOrder(Sequence[fcl.CollisionObject]):
-    """The role objects as a sequence in role order (built on access)."""
-
-    def __init__(self, objects: _RoleObjects, roles: tuple[str, ...]) -> None:
-        self._objects, self._roles = objects, roles
-
-    @overload
-    def __getitem__(self, i: int) -> fcl.CollisionObject: ...
-
-    @overload
-    def __getitem__(self, i: slice) -> Sequence[fcl.CollisionObject]: ...
-
-    def __getitem__(self, i: int | slice) -> fcl.CollisionObject | Sequence[fcl.CollisionObject]:
-        if isinstance(i, slice):
-            return [self._objects[r] for r in self._roles[i]]
-        return self._objects[self._roles[i]]
-
-    def __len__(self) -> int:
-        return len(self._roles)
-
-
-def _check_meshes(meshes: Mapping[str, trimesh.Trimesh]) -> None:
-    if not meshes:
-        raise InputError("the collision scene needs at least one mesh", field="meshes")
-    for role, mesh in meshes.items():
-        if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-            raise InputError(
-                "scene mesh must be a non-empty trimesh.Trimesh",
-                field=f"meshes[{role!r}]",
-                value=type(mesh).__name__,
-            )
-        if not np.isfinite(mesh.vertices).all():
-            raise InputError("scene mesh has non-finite vertices", field=f"meshes[{role!r}]")
-
-
 class CollisionScene:
     """Named triangle meshes (roles) against which tool postures are checked.
 
@@ -229,7 +173,7 @@ class CollisionScene:
         arc_step_deg: float = math.degrees(DEFAULT_ARC_STEP),
         slack: float = 0.25,
     ) -> None:
-        _check_meshes(meshes)
+        check_meshes(meshes)
         if not (sample_spacing > 0 and grid_spacing > 0 and slack > 0 and arc_step_deg > 0):
             raise InputError(
                 "sample_spacing, grid_spacing, slack and arc_step_deg must be positive",
@@ -242,7 +186,7 @@ class CollisionScene:
         self.arc_step = math.radians(arc_step_deg)
         self.slack = float(slack)
         #: fcl object per role (built on first use: the exact kernel settles most pairs)
-        self.objects = _RoleObjects(self.meshes)
+        self.objects = RoleObjects(self.meshes)
         self.triangles = {
             role: TriangleSet(m.vertices, m.faces) for role, m in self.meshes.items()
         }
@@ -409,7 +353,7 @@ class CollisionScene:
             settled[todo[(result == HIT).any(axis=1)]] = True
         kernel_pairs = settle_undecided(self, model, tip_a, rot, state)
         part_objects = [model.objects.get(name) for name in PART_NAMES]
-        role_objects = _InOrder(self.objects, self.roles)
+        role_objects = InOrder(self.objects, self.roles)
         collides, part_hit, role_hit, calls = first_contacts(
             part_objects, role_objects, tip_a, rot, state
         )
