@@ -32,11 +32,16 @@ from pathlib import Path
 
 from cam.collision import CollisionScene
 from cam.finishing.fillet_paths import LEAN_DEG, fillet_passes
-from cam.finishing.interference import StepHint
 from cam.finishing.options import FinishOptions
 from cam.finishing.paths import CutterPath, rotate_path
-from cam.finishing.pieces import cut_short_entry, finish_pieces, finish_runs, finish_trimmed
-from cam.finishing.plan import FinishResult, PathResult
+from cam.finishing.pieces import (
+    cut_short_entry,
+    finish_ordered,
+    finish_pieces,
+    finish_runs,
+    finish_trimmed,
+)
+from cam.finishing.plan import FinishResult
 from cam.finishing.plan_memo import PlanMemo
 from cam.tools import DEFAULT_LIBRARY, Tool, load_tool_library
 from geometry.surfaces import ImpellerSurfaces
@@ -173,23 +178,6 @@ def _finish_all(base: list[CutterPath], surfaces: ImpellerSurfaces, tool: Tool,
     ordered: list[CutterPath] = []
     for k in range(count):
         ordered += [p if k == 0 else rotate_path(p, k, surfaces.spec.pitch) for p in base]
-    results: list[PathResult] = []
-    cut_short = []
-    hints: dict[str, StepHint | None] = {}
-    for i, path in enumerate(ordered):
-        key = path.name.split(".", 1)[1]  # the pass, whatever the passage
-        known = None if memo is None else memo.recall(tool.name, path.name)
-        if known is None:
-            causes: list[str | None] = []
-            known = (*finish_runs(path, tool, kins, scene, options, surfaces,
-                                  hint=hints.get(key), causes=causes), causes)
-            if memo is not None:
-                memo.record(tool.name, path.name, known)
-        pieces, lost, why = known
-        hints[key] = pieces[0].step_hint if len(pieces) == 1 and not lost.size else None
-        results += pieces
-        if lost.size:
-            cut_short.append(cut_short_entry(path, lost, why))
-        if progress is not None:
-            progress(i + 1, len(ordered), path.name)
+    results, cut_short = finish_ordered(ordered, tool, kins, scene, options, surfaces,
+                                        memo, progress)
     return FinishResult(results, tool, options, scene_source, extra={"cut_short": cut_short})

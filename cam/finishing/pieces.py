@@ -25,7 +25,7 @@ fillet (``edge_plan``, ``fillet_plan``).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -43,8 +43,10 @@ from postproc.kinematics import Kinematics
 
 if TYPE_CHECKING:
     from cam.collision import CollisionScene
+    from cam.finishing.plan_memo import PlanMemo
 
-__all__ = ["MIN_PIECE", "TRIM_ROUNDS", "cut_short_entry", "finish_pieces", "finish_runs",
+__all__ = ["MIN_PIECE", "TRIM_ROUNDS", "cut_short_entry", "finish_ordered", "finish_pieces",
+           "finish_runs",
            "finish_trimmed", "kept_pieces", "offenders", "PassTrim", "trimmed_passes"]
 
 #: A pass is shortened at its ends at most this many times.
@@ -347,3 +349,39 @@ def cut_short_entry(path: CutterPath, lost: NDArray[np.intp],
     if causes is not None:
         entry["causes"] = list(causes)
     return entry
+
+
+def finish_ordered(ordered: Sequence[CutterPath], tool: Tool, kins: Kinematics,
+                   scene: CollisionScene, options: FinishOptions,
+                   surfaces: ImpellerSurfaces | None, memo: PlanMemo | None = None,
+                   progress: Callable[[int, int, str], None] | None = None
+                   ) -> tuple[list[PathResult], list[dict[str, Any]]]:
+    """Every pass of ``ordered`` finished (``finish_runs``): the clean pieces in order and
+    finish.json's ``cut_short`` entries.
+
+    The same pass in the previous passage hands on its eq. 7 remedy step
+    (``interference.StepHint``), tried first and proven before it is taken, so the
+    results are those without it, with fewer checks. With a ``memo``
+    (``plan_memo.PlanMemo``) a pass's recorded plan is reused and new plans are
+    recorded, each with the causes of its left-out postures.
+    """
+    results: list[PathResult] = []
+    cut_short: list[dict[str, Any]] = []
+    hints: dict[str, StepHint | None] = {}
+    for i, path in enumerate(ordered):
+        key = path.name.split(".", 1)[1]  # the pass, whatever the passage
+        known = None if memo is None else memo.recall(tool.name, path.name)
+        if known is None:
+            causes: list[str | None] = []
+            known = (*finish_runs(path, tool, kins, scene, options, surfaces,
+                                  hint=hints.get(key), causes=causes), causes)
+            if memo is not None:
+                memo.record(tool.name, path.name, known)
+        pieces, lost, why = known
+        results += pieces
+        hints[key] = pieces[0].step_hint if len(pieces) == 1 and not lost.size else None
+        if lost.size:
+            cut_short.append(cut_short_entry(path, lost, why))
+        if progress is not None:
+            progress(i + 1, len(ordered), path.name)
+    return results, cut_short

@@ -435,11 +435,7 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                          blade=options.blade_passes, hub=options.hub_passes,
                          reach=max(tool.flute_length - tool.radius, 0.0),
                          chordal=options.chordal_tolerance_mm)
-    from cam.finishing.pieces import (  # builds on finish_path
-        cut_short_entry,
-        finish_runs,
-        trimmed_passes,
-    )
+    from cam.finishing.pieces import finish_ordered, trimmed_passes  # build on finish_path
 
     kept: dict[str, int] = {}
     if keep is not None:
@@ -453,27 +449,8 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                         for p in base if p.operation == op]
     if before is not None:
         before(ordered)
-    results: list[PathResult] = []
-    cut_short: list[dict[str, Any]] = []
-    # the same path in the previous passage: its remedy step is tried first (proven
-    # before it is used, so the result is the same as without it)
-    hints: dict[str, StepHint | None] = {}
-    for i, path in enumerate(ordered):
-        key = path.name.split(".", 1)[1]
-        known = None if memo is None else memo.recall(tool.name, path.name)
-        if known is None:
-            causes: list[str | None] = []
-            known = (*finish_runs(path, tool, kins, scene, options, surfaces,
-                                  hint=hints.get(key), causes=causes), causes)
-            if memo is not None:
-                memo.record(tool.name, path.name, known)
-        pieces, lost, why = known
-        results += pieces
-        hints[key] = pieces[0].step_hint if len(pieces) == 1 and not lost.size else None
-        if lost.size:
-            cut_short.append(cut_short_entry(path, lost, why))
-        if progress is not None:
-            progress(i + 1, len(ordered), path.name)
+    results, cut_short = finish_ordered(ordered, tool, kins, scene, options, surfaces,
+                                        memo, progress)
     extra: dict[str, Any] = {"cut_short": cut_short}
     if keep is not None:
         extra["kept"] = kept
