@@ -40,6 +40,7 @@ from postproc.linearise import lever_bound, linearise
 from postproc.pole import keeps_branch
 from postproc.posts.numbers import modal_changes, quantise
 from postproc.program import FeedMode, MachineProgram, Motion
+from postproc.safe_retract import guarded_rapids, safety_joints
 from postproc.toolpath import Cutter, MoveKind, Toolpath
 
 if TYPE_CHECKING:
@@ -192,19 +193,15 @@ def _safety_blocks(
     length_after: float,
 ) -> _Chunk:
     """Retract, orient and position blocks from ``before`` (or unknown) to ``target``."""
-    nan = np.nan
-    bx, by, ba, bc = (nan,) * 4 if before is None else tuple(before[[0, 1, 3, 4]])
-    joints = np.array([
-        [bx, by, z_before, ba, bc],
-        [bx, by, z_after, target[3], target[4]],
-        [target[0], target[1], z_after, target[3], target[4]],
-    ])
+    joints = safety_joints(np.full(5, np.nan) if before is None else before, target,
+                           z_before, z_after)
     known = before is not None
     present = np.array([
         [known, known, True, known, known],
         [known, known, True, True, True],
         [True, True, True, True, True],
     ])
+    nan = np.nan
     return _Chunk(
         joints=joints, words=joints.copy(), present=present,
         motion=np.full(3, Motion.RAPID, np.int8), feed=np.full(3, nan),
@@ -418,13 +415,7 @@ def _guard_rapids(path: _Chunk, z: float, length: float,
 
     Rows flagged in ``link`` (checked links, ``Toolpath.link``) are left as they are.
     """
-    n = len(path.record)
-    if n < 2:
-        return path
-    turn = np.abs(np.diff(path.joints[:, 3:], axis=0)).max(axis=1) > ROTARY_STILL
-    if link is not None:
-        turn &= ~link[1:]
-    guarded = np.flatnonzero((path.motion[1:] == Motion.RAPID) & turn) + 1
+    guarded = guarded_rapids(path.joints, path.motion == Motion.RAPID, link)
     if len(guarded) == 0:
         return path
     pieces: list[_Chunk] = []

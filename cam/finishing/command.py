@@ -244,7 +244,7 @@ def _machine_entry(obstacle: MachineObstacle, result: FinishResult,
         entry["machine_blocked_points"] = blocked.tolist()
         if blocked.size:
             blocked_paths.append(path.path.name)
-    operations = {op: operation_clearance(obstacle, tools[op], tp.tip, tp.axis)
+    operations = {op: operation_clearance(obstacle, tools[op], tp)
                   for op, (tp, _, _) in toolpaths.items()}
     stats = obstacle.stats
     return {"margin_mm": obstacle.margin, "step_mm": obstacle.model.step,

@@ -36,10 +36,12 @@ from cam.collision import PART_NAMES, CollisionScene
 from cam.collision.scene import PostureReport
 from cam.verify.machine_query import MachineClearance, joint_path_samples
 from cam.verify.machine_scene import machine_scene
+from impeller_cam.tolerances import DEFAULT_TOLERANCES
 
 if TYPE_CHECKING:
     from cam.tools import Tool
     from postproc.machine_model import MachineModel, Solid
+    from postproc.toolpath import Toolpath
 
 __all__ = ["MACHINE_ROLE", "MachineObstacle", "continuous_branches", "operation_clearance"]
 
@@ -226,18 +228,22 @@ def continuous_branches(branches: Array) -> Array:
                      np.where(odd[:, None], first, second)])
 
 
-def operation_clearance(obstacle: MachineObstacle, tool: Tool, tip: Array, axis: Array
+def operation_clearance(obstacle: MachineObstacle, tool: Tool, toolpath: Toolpath
                         ) -> dict[str, Any]:
     """finish.json's machine entry of one operation, as the post will move it.
 
     The joints are the post's (the inverse kinematics over the whole operation: its
-    branches and C winding), sampled joint-linearly as the verifier samples the
-    blocks (``joint_path_samples``); every checked pair, as the verifier's.
+    branches, C winding and feed moves kept on their branch), sampled joint-linearly as
+    the verifier samples the blocks (``joint_path_samples``); every checked pair, as the
+    verifier's. A plain rapid that turns a rotary axis is moved as the post moves it:
+    retract to the machine's safe Z (the top of its Z travel), orient, position, down
+    (``postproc.posting.guarded_rapids``, ``safety_joints``).
 
     Parameters
     ----------
-    tip, axis : (n, 3) float64
-        The operation's poses in W (cuts, departures, links, approaches).
+    toolpath : Toolpath
+        The operation's poses in W (cuts, departures, links, approaches), their kinds
+        and checked links.
 
     Returns
     -------
@@ -248,20 +254,41 @@ def operation_clearance(obstacle: MachineObstacle, tool: Tool, tip: Array, axis:
         comes closer than its clearance: 0 when planning and verification agree).
     """
     from postproc.kinematics.base import OverTravelError
+    from postproc.pole import keeps_branch
+    from postproc.safe_retract import guarded_rapids, safety_joints
+    from postproc.toolpath import MoveKind
 
     query = obstacle.query_every(tool)
+    tip = np.asarray(toolpath.tip, np.float64)
+    axis = np.asarray(toolpath.axis, np.float64)
+    keep = keeps_branch(axis, toolpath.kind != MoveKind.RAPID, DEFAULT_TOLERANCES.angular)
     try:
-        joints = obstacle.kins.inverse(np.asarray(tip, np.float64), np.asarray(axis, np.float64))
+        joints = obstacle.kins.inverse(tip, axis, keep_branch=keep if keep.any() else None)
     except OverTravelError as error:
         return {"machine_clearance_mm": None, "note": f"not reachable: {error}"}
-    samples, starts = joint_path_samples(joints, obstacle.model.step, query.rho,
+    guarded = guarded_rapids(joints, toolpath.kind == MoveKind.RAPID, toolpath.link)
+    z_safe = float(obstacle.kins.machine.limits()[1][2])
+    rows: list[Array] = []
+    pose: list[int] = []  # per row of ``rows``: the pose whose move it belongs to
+    start = 0
+    for j in guarded.tolist() + [len(joints)]:
+        rows.append(joints[start:j])
+        pose.extend(range(start, j))
+        if j < len(joints):
+            rows.append(safety_joints(joints[j - 1], joints[j], z_safe, z_safe))
+            pose.extend([j] * 3)
+        start = j
+    moved = np.vstack(rows)
+    owner = np.asarray(pose, np.int64)
+    samples, starts = joint_path_samples(moved, obstacle.model.step, query.rho,
                                          with_starts=True)
     found, (smallest, pair, row) = query.survey(samples)
     below = found.margin < 0.0  # exact wherever a pair is within its clearance
     if not math.isfinite(smallest):
         return {"machine_clearance_mm": None}
-    move = np.searchsorted(starts, np.flatnonzero(below), side="left")
+    move = owner[np.searchsorted(starts, np.flatnonzero(below), side="left")]
     return {"machine_clearance_mm": round(smallest, 3),
             "machine_clearance_pair": list(pair),
-            "machine_clearance_pose": int(np.searchsorted(starts, row, side="left")),
-            "machine_collision_moves": int(len(np.unique(move)))}
+            "machine_clearance_pose": int(owner[np.searchsorted(starts, row, side="left")]),
+            "machine_collision_moves": int(len(np.unique(move))),
+            "guarded_rapids": int(len(guarded))}

@@ -12,7 +12,7 @@ import trimesh
 
 from cam.collision import CollisionScene
 from cam.finishing.interference import check_path
-from cam.finishing.machine_obstacle import MACHINE_ROLE, MachineObstacle
+from cam.finishing.machine_obstacle import MACHINE_ROLE, MachineObstacle, operation_clearance
 from cam.finishing.options import FinishOptions
 from cam.finishing.repair import PostureRules, repair_postures
 from cam.tools import resolve_tool
@@ -196,3 +196,42 @@ def test_a_umr_orientation_the_machine_cannot_take_is_refused(
     assert entry is not None and entry["machine_clearance_mm"] >= 3.0
     assert entry["machine_collisions"] == 0
     assert entry["machine_clearance_umr"] == "rough_umr7"
+
+
+def test_a_plain_rotary_rapid_is_checked_as_the_post_moves_it(
+        tmp_path: Path, trunnion: dict[str, Any]) -> None:
+    """finish.json's machine entry moves a plain rapid that turns A as the post does
+    (safe Z, orient, position, down: ``postproc.safe_retract``), and agrees with the
+    verifier on the posted program; the same move as a checked link (one joint move,
+    no retract) passes the tool by the mandrel nut, closer."""
+    from postproc.posting import post_toolpaths
+    from postproc.posts import PostOptions, get_post
+    from postproc.toolpath import MoveKind, Toolpath
+
+    kins, machine = trunnion["kins"], trunnion["machine"]
+    obstacle = MachineObstacle(_far_scene(), machine.model, kins, trunnion["part"])
+    # A from 0 to -80 deg with the tip 70 mm up: half-way (A -30..-50) the tool passes
+    # the mandrel nut at ~2.8 mm; both ends are more than 8 mm clear
+    joints = _joints(np.array([[23.8, -22.4, 70.0, 0.0, -39.5],
+                               [23.8, -22.4, 70.0, -80.0, -39.5]]))
+    tip, axis = kins.forward(joints)
+
+    def clearance(link: bool) -> dict[str, Any]:
+        path = Toolpath(tip=tip, axis=axis, feed=np.full(2, math.nan),
+                        kind=np.full(2, MoveKind.RAPID, np.int8), name="fillet",
+                        tool_number=SHORT_TOOL.number, link=np.array([False, link]))
+        return operation_clearance(obstacle, SHORT_TOOL, path)
+
+    guarded, straight = clearance(False), clearance(True)
+    assert guarded["guarded_rapids"] == 1 and straight["guarded_rapids"] == 0
+    assert straight["machine_clearance_mm"] < guarded["machine_clearance_mm"] - 4.0
+    assert straight["machine_clearance_pair"] == ["tool", "mandrel_nut"]
+
+    path = Toolpath(tip=tip, axis=axis, feed=np.full(2, math.nan),
+                    kind=np.full(2, MoveKind.RAPID, np.int8), name="fillet",
+                    tool_number=SHORT_TOOL.number)
+    options = PostOptions()
+    nc = tmp_path / "fillet.ngc"
+    nc.write_text(get_post("linuxcnc").write(post_toolpaths([path], machine, options), options))
+    verified = check_program(trunnion["scene"], kins, read_nc(nc, machine=machine), "fillet.ngc")
+    assert verified.smallest == pytest.approx(guarded["machine_clearance_mm"], abs=0.05)
