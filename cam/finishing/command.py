@@ -42,6 +42,7 @@ from cam.collision import CollisionScene
 from cam.finishing.edge_plan import plan_edges
 from cam.finishing.fillet_plan import check_fillet_tool, plan_fillet
 from cam.finishing.linked_ops import AXIS_STILL, Linked, checked_links, finish_toolpaths
+from cam.finishing.linked_ops import check_links as _check_links  # noqa: F401 (its old home)
 from cam.finishing.machine_obstacle import MachineObstacle, operation_clearance
 from cam.finishing.machine_reach import check_machine_reach
 from cam.finishing.options import FinishOptions

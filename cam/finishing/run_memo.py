@@ -51,9 +51,9 @@ class MadeOperation:
     tool : str
         Name of its tool.
     linked : tuple
-        ``(toolpath, air mask (n,) bool, link entries)`` (``command.finish_toolpaths``).
+        ``(toolpath, air mask (n,) bool, link entries)`` (``linked_ops.finish_toolpaths``).
     link_collisions : int
-        Air moves found colliding (``command._check_links``).
+        Air moves found colliding (``linked_ops.check_links``).
     apt : tuple of str or None
         ``(header, text)`` of its APT file (None: not written yet).
     machine : dict or None
