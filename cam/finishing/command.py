@@ -41,12 +41,12 @@ import trimesh
 from cam.collision import CollisionScene
 from cam.finishing.edge_plan import plan_edges
 from cam.finishing.fillet_plan import check_fillet_tool, plan_fillet
-from cam.finishing.linking import Envelope, Linker, LinkRules
+from cam.finishing.linked_ops import AXIS_STILL, Linked, checked_links, finish_toolpaths
+from cam.finishing.linked_ops import check_links as _check_links  # noqa: F401 (its old home)
 from cam.finishing.machine_obstacle import MachineObstacle, operation_clearance
 from cam.finishing.machine_reach import check_machine_reach
 from cam.finishing.options import FinishOptions
-from cam.finishing.order import ordered_passes
-from cam.finishing.plan import FinishResult, plan_finishing
+from cam.finishing.plan import FinishResult, PathResult, plan_finishing
 from cam.finishing.plots import plot_angular_displacements
 from cam.finishing.scene import solid_meshes, surface_meshes
 from cam.finishing.stock_clearance import (
@@ -63,18 +63,19 @@ from geometry.surfaces import ImpellerSurfaces, build_surfaces
 from impeller_cam.atomic import staged_directory, write_text_atomic
 from impeller_cam.errors import InputError
 from impeller_cam.progress import progress_bar
-from postproc.apt import write_apt
+from postproc.apt import format_apt
 from postproc.kinematics import Kinematics
-from postproc.toolpath import Cutter, MoveKind, Toolpath
 
 if TYPE_CHECKING:
     from cam.finishing.pieces import PassTrim
     from cam.finishing.plan_memo import PlanMemo
+    from cam.finishing.run_memo import MadeOperation, RunMemo
     from cam.verify.deviation import DesignDistance
     from cam.verify.stock import Stock
     from geometry.impeller import Impeller
+    from geometry.surfaces import ImpellerSurfaces
 
-__all__ = ["SCENE_SOURCES", "finish_toolpaths", "run_finish"]
+__all__ = ["AXIS_STILL", "SCENE_SOURCES", "finish_toolpaths", "run_finish"]
 
 SCENE_SOURCES = ("solid", "surfaces")
 #: Grid spacing of the closed-form collision meshes (``scene="surfaces"``), mm.
@@ -82,93 +83,13 @@ SURFACE_MESH_SPACING = 1.0
 #: Ray spacing of the spec's blank when it stands for the part in the machine check, mm
 #: (coarser casts give a larger solid of revolution: on the safe side).
 BLANK_PITCH = 1.0
-#: Largest change of the unit tool axis over a rapid the post writes as one straight
-#: ``G0`` (a rapid turning a rotary joint by more than ``postproc.feeds.ROTARY_STILL``,
-#: 1e-12 rad, gets the post's safe retract).
-AXIS_STILL = 1e-9
 #: Paper figures quoted next to ours in finish.json.
 PAPER = {"junction_cc_points": 475, "paths": 26, "reversals_after": 0}
-
-
-def _envelope(surfaces: ImpellerSurfaces, clearance: float) -> Envelope:
-    contours = np.concatenate([surfaces.hub.contour, surfaces.shroud.contour])
-    return Envelope(float(contours[:, 1].max()) + clearance,
-                    float(contours[:, 0].max()) + clearance)
-
-
-def finish_toolpaths(result: FinishResult, surfaces: ImpellerSurfaces,
-                     scene: CollisionScene, kins: Kinematics
-                     ) -> dict[str, tuple[Toolpath, np.ndarray, list[dict[str, Any]]]]:
-    """One linked ``Toolpath`` per operation, the mask of its air poses, its links.
-
-    Parameters
-    ----------
-    result : FinishResult
-        The finished paths.
-    surfaces : ImpellerSurfaces
-        The impeller (retract envelope).
-    scene : CollisionScene
-        Collision meshes the links are checked against.
-    kins : Kinematics
-        The machine's kinematics.
-
-    Returns
-    -------
-    dict
-        Operation -> ``(toolpath, air mask (n,) bool, link entries)``; poses in W, mm.
-    """
-    tool, options = result.tool, result.options
-    feed = float(tool.feed) if tool.feed else 1000.0
-    rules = LinkRules(
-        tool=tool, feed=feed, departure=options.departure_mm, clearance=options.clearance_mm,
-        cutter_allowance=options.cutter_allowance_mm, step_mm=options.motion_step_mm,
-        step_rad=math.radians(options.motion_step_deg),
-        envelope=_envelope(surfaces, options.retract_clearance_mm),
-        longest=tool.length + 500.0, turn_step=math.radians(options.link_step_deg),
-        feed_link=options.feed_link_mm)
-    linker = Linker(scene, kins, rules)
-    return {op: linker.join(f"finish_{op}", ordered_passes(members, options.zigzag),
-                            tool_number=tool.number,
-                            cutter=Cutter(tool.diameter, tool.corner_radius, tool.flute_length),
-                            spindle_rpm=tool.spindle_rpm)
-            for op, members in result.operations().items()}
 
 
 def _tool_entry(tool: Tool) -> dict[str, Any]:
     """finish.json's description of a tool."""
     return {"name": tool.name, "number": tool.number, "diameter_mm": tool.diameter}
-
-
-def _check_links(scene: CollisionScene, tool: Tool, toolpath: Toolpath,
-                 air: np.ndarray, options: FinishOptions) -> int:
-    """Collision-check every air move that is not a checked link (those are checked in
-    joint space by ``Linker``), linearly in W as the planner means them; the count.
-
-    Feed moves (departures, approaches, stepovers) are checked as cuts: the cutter,
-    shrunk by the cutting allowance, may cut the stock. A rapid that keeps the tool
-    axis (the post writes it as one straight ``G0``; one that turns it is guarded by
-    the post's safe retract) is checked as a rapid: the whole tool, the cutter over its
-    fluted length grown by ``clearance_mm``, against the design and the stock.
-    """
-    moving = (air & ~toolpath.link)[1:]
-    still = np.linalg.norm(np.diff(toolpath.axis, axis=0), axis=1) < AXIS_STILL
-    rapid = moving & (toolpath.kind[1:] == MoveKind.RAPID) & still
-    bad = 0
-    for mask, allowance in ((moving & ~rapid, options.cutter_allowance_mm),
-                            (rapid, -options.clearance_mm)):
-        edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
-        for start, stop in zip(edges[::2], edges[1::2], strict=True):
-            tip, axis = toolpath.tip[start:stop + 1], toolpath.axis[start:stop + 1]
-            report = scene.check_motion(tool, tip, axis, max_step_mm=options.motion_step_mm,
-                                        max_step_deg=options.motion_step_deg,
-                                        cutter_allowance=allowance,
-                                        # only compared with the limit: exact below it
-                                        clearance_cap=options.clearance_mm,
-                                        clearance_limits=(options.clearance_mm,))
-            clear = np.asarray(report.clearance)
-            bad += int((report.collides | (np.isfinite(clear)
-                                           & (clear < options.clearance_mm))).sum())
-    return bad
 
 
 def _stock_scene(the_stock: Stock, impeller: Any, design: CollisionScene,
@@ -232,25 +153,109 @@ def _machine_obstacle(model: Any, kins: Kinematics, scene: CollisionScene,
 
 
 def _machine_entry(obstacle: MachineObstacle, result: FinishResult,
-                   entries: list[dict[str, Any]],
-                   toolpaths: dict[str, tuple[Toolpath, np.ndarray, list[dict[str, Any]]]],
-                   tools: dict[str, Tool]) -> dict[str, Any]:
-    """Per path ``machine_blocked_points`` in ``entries``; finish.json's ``machine``."""
+                   entries: list[dict[str, Any]], toolpaths: dict[str, Linked],
+                   tools: dict[str, Tool], made: RunMemo | None = None) -> dict[str, Any]:
+    """Per path ``machine_blocked_points`` in ``entries``; finish.json's ``machine``
+    (``made``: the last run's, where they hold, ``run_memo``; this run's recorded)."""
     blocked_paths = []
     for entry, path in zip(entries, result.paths, strict=True):
-        tool = tools.get(path.path.operation, result.tool)
-        margin = obstacle.posture_margin(tool, path.tip, path.axis)
-        blocked = np.flatnonzero(margin < obstacle.margin)
-        entry["machine_blocked_points"] = blocked.tolist()
-        if blocked.size:
+        blocked = None if made is None else made.blocked(path)
+        if blocked is None:
+            tool = tools.get(path.path.operation, result.tool)
+            margin = obstacle.posture_margin(tool, path.tip, path.axis)
+            blocked = np.flatnonzero(margin < obstacle.margin).tolist()
+            if made is not None:
+                made.margins[path.path.name] = (path, blocked)
+        entry["machine_blocked_points"] = blocked
+        if blocked:
             blocked_paths.append(path.path.name)
-    operations = {op: operation_clearance(obstacle, tools[op], tp)
-                  for op, (tp, _, _) in toolpaths.items()}
+    operations = {}
+    for op, (tp, _, _) in toolpaths.items():
+        known = None if made is None else made.operations.get(op)
+        if known is None or known.linked[0] is not tp:
+            operations[op] = operation_clearance(obstacle, tools[op], tp)
+            continue
+        if known.machine is None or not made.machine_valid:  # type: ignore[union-attr]
+            known.machine = operation_clearance(obstacle, tools[op], tp)
+        operations[op] = known.machine
     stats = obstacle.stats
     return {"margin_mm": obstacle.margin, "step_mm": obstacle.model.step,
             "paths_blocked": blocked_paths, "operations": operations,
             "poses_checked": int(stats["poses"]),
             "distance_queries": int(stats["distance_queries"])}
+
+
+def _design_scene(spec: Any, source: str, scene: str, opts: FinishOptions,
+                  design: Impeller | None, made: RunMemo | None
+                  ) -> tuple[Any, ImpellerSurfaces, dict[str, Any], CollisionScene]:
+    """``(impeller or None, surfaces, meshes by role, design scene)`` of the spec: the
+    built solid's meshes (``"solid"``) or the closed-form surfaces' (``"surfaces"``);
+    ``made``: the last run's when they are of the same design (``run_memo``)."""
+    key = (source, scene, opts.tessellation_mm)
+    if made is not None and made.design is not None and made.design[0] == key and (
+            design is None or made.design[1] is design):
+        made.count("design_scene")
+        return made.design[1], made.design[2], made.design[3], made.design[4]
+    if scene == "solid":
+        from geometry.impeller import Impeller
+
+        impeller = design if design is not None else Impeller(spec)
+        surfaces = impeller.surfaces
+        meshes = solid_meshes(impeller, opts.tessellation_mm)
+    else:
+        impeller, surfaces = None, build_surfaces(spec)
+        meshes = surface_meshes(surfaces, SURFACE_MESH_SPACING)
+    collision = CollisionScene(meshes)
+    if made is not None:
+        made.design, made.stl = (key, impeller, surfaces, meshes, collision), None
+    return impeller, surfaces, meshes, collision
+
+
+def _scene_stl(meshes: dict[str, Any], made: RunMemo | None) -> bytes:
+    """``scene.stl`` of the collision meshes (the last run's, same scene)."""
+    if made is not None and made.stl is not None:
+        return made.stl
+    merged = trimesh.util.concatenate(list(meshes.values()))
+    assert isinstance(merged, trimesh.Trimesh)
+    stl = merged.export(file_type="stl")
+    assert isinstance(stl, bytes)
+    if made is not None:
+        made.stl = stl
+    return stl
+
+
+def _write_apt(path: Path, toolpath: Any, header: str, known: MadeOperation | None) -> None:
+    """One operation's APT file (``known``: the text of the last run's same operation)."""
+    if known is None or known.apt is None or known.apt[0] != header:
+        text = format_apt([toolpath], header=header)
+        if known is not None:
+            known.apt = (header, text)
+    else:
+        text = known.apt[1]
+    write_text_atomic(path, text)
+
+
+def _plots(stage: Path, entries: list[dict[str, Any]], result: FinishResult,
+           made: RunMemo | None) -> None:
+    """The angular displacement plot of every passage-0 path (``made``: the last
+    run's of the same plans copied)."""
+    named: dict[str, list[PathResult]] = {}
+    for entry, path in zip(entries, result.paths, strict=True):
+        if path.path.passage == 0:
+            entry["plot"] = f"plots/{path.path.name}.png"
+            named.setdefault(path.path.name, []).append(path)
+    drawn = []
+    for name, paths in named.items():
+        png = stage / f"plots/{name}.png"
+        known = None if made is None else made.plot(name, paths)
+        if known is not None:
+            png.parent.mkdir(parents=True, exist_ok=True)
+            png.write_bytes(known)
+        else:  # pieces of one pass share its file: the last one's plot
+            drawn.append((paths[-1].joints_before, paths[-1].joints_after, png, name))
+    plot_angular_displacements(drawn)
+    if made is not None:
+        made.plots.update({name: (named[name], png.read_bytes()) for _, _, png, name in drawn})
 
 
 def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path, *,
@@ -359,16 +364,11 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
 
         # a .npz keeps its own resolution; a blank or mesh is cast at half a voxel
         the_stock = load_stock(str(stock), 0.5 * opts.stock_voxel_mm)
-    if scene == "solid":
-        from geometry.impeller import Impeller
-
-        impeller = design if design is not None else Impeller(the_spec)
-        surfaces = impeller.surfaces
-        meshes = solid_meshes(impeller, opts.tessellation_mm)
-    else:
-        surfaces = build_surfaces(the_spec)
-        meshes = surface_meshes(surfaces, SURFACE_MESH_SPACING)
-    collision = CollisionScene(meshes)
+    made = None if memo is None else memo.run
+    if made is not None:
+        made.start()
+    impeller, surfaces, meshes, collision = _design_scene(the_spec, str(spec), scene, opts,
+                                                        design, made)
     if the_stock is not None:
         collision = _stock_scene(the_stock, impeller, collision, opts, design_distance)
     stock_scene = collision if isinstance(collision, StockScene) else None
@@ -376,6 +376,8 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
     if machine_obstacle and the_machine.model is not None:
         collision = obstacle = _machine_obstacle(the_machine.model, kins, collision,
                                                  the_stock, spec)
+    if made is not None:
+        made.begin(None if obstacle is None else obstacle.part)
     bar = progress_bar(progress)
     with bar if bar is not None else nullcontext():
         task = bar.add_task("finishing", total=None) if bar is not None else None
@@ -396,37 +398,41 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                                  field="blade_strategy", value=opts.blade_strategy,
                                  accepted="\"point\" or \"swarf\" with a pass trim")
             keep = left
-        reach = None if obstacle is None else partial(
-            check_machine_reach, obstacle, the_tool, options=opts, machine=str(machine))
+        # the reach check asks the machine and the part's solid: passed once, passed again
+        reached = (str(machine), the_tool.name, repr(plan_opts.as_dict()), repr(keep))
+        reach = None if obstacle is None or made is not None and made.machine_valid \
+            and reached in made.reach else partial(check_machine_reach, obstacle, the_tool,
+                                                   options=opts, machine=str(machine))
         result = plan_finishing(surfaces, the_tool, kins, collision, plan_opts,
                                 scene_source=scene, progress=report, keep=keep, before=reach,
                                 memo=memo)
+        if made is not None and obstacle is not None:
+            made.reach.add(reached)
         cut_short: list[dict[str, Any]] = list(result.extra.get("cut_short", []))
         result_kept = result.extra.get("kept")
         result = FinishResult(result.paths, the_tool, opts, scene)
-        toolpaths = finish_toolpaths(result, surfaces, collision, kins)
+        toolpaths = finish_toolpaths(result, surfaces, collision, kins, made)
         tools = {op: the_tool for op in toolpaths}
         swarf_entry = None
         if flank is not None:
             swarf_entry = {**flank.extra["swarf"], "point_passes": result_kept}
             if flank.paths:
-                toolpaths.update(finish_toolpaths(flank, surfaces, collision, kins))
+                toolpaths.update(finish_toolpaths(flank, surfaces, collision, kins, made))
                 tools.update({op: the_tool for op in flank.operations()})
                 result = FinishResult([*result.paths, *flank.paths], the_tool, opts, scene)
         if edges is not None:
-            toolpaths.update(finish_toolpaths(edges, surfaces, collision, kins))
+            toolpaths.update(finish_toolpaths(edges, surfaces, collision, kins, made))
             tools.update({op: the_tool for op in edges.operations()})
             cut_short += edges.extra["cut_short"]
             result = FinishResult([*result.paths, *edges.paths], the_tool, opts, scene)
         if fillet is not None:
             pencil = plan_fillet(surfaces, fillet, the_tool.radius, kins, collision, opts,
                                  scene_source=scene, progress=report, memo=memo)
-            toolpaths.update(finish_toolpaths(pencil, surfaces, collision, kins))
+            toolpaths.update(finish_toolpaths(pencil, surfaces, collision, kins, made))
             tools.update({op: fillet for op in pencil.operations()})
             cut_short += pencil.extra["cut_short"]
             result = FinishResult([*result.paths, *pencil.paths], the_tool, opts, scene)
-        link_collisions = {op: _check_links(collision, tools[op], tp, air, opts)
-                           for op, (tp, air, _) in toolpaths.items()}
+        link_collisions = checked_links(collision, tools, toolpaths, opts, made)
     summary = result.summary()
     entries = summary.pop("path_entries")
     summary["left_out_points"] = int(sum(len(e["left_out"]) for e in cut_short))
@@ -434,13 +440,13 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
     stock_entry = (_engagement(stock_scene, result, entries, tools)
                    if stock_scene is not None else None)
     machine_entry = (None if obstacle is None
-                     else _machine_entry(obstacle, result, entries, toolpaths, tools))
+                     else _machine_entry(obstacle, result, entries, toolpaths, tools, made))
     with staged_directory(out) as stage:
         operations = {}
         for op, (toolpath, air, links) in toolpaths.items():
             name = f"{prefix}_{op}.apt"
-            write_apt(stage / name, [toolpath],
-                      header=f"impeller-cam {prefix}: {op}, tool {tools[op].name}")
+            _write_apt(stage / name, toolpath, f"impeller-cam {prefix}: {op}, tool "
+                       f"{tools[op].name}", None if made is None else made.operations.get(op))
             operations[op] = {"apt": name, "tool": _tool_entry(tools[op]),
                               "paths": sum(e["operation"] == op for e in entries),
                               "poses": len(toolpath), "link_poses": int(air.sum()),
@@ -451,18 +457,8 @@ def run_finish(spec: str | Path, machine: str | Path, tool: str, out: str | Path
                                             "demoted")},
                               "links": links}
         if plots:
-            drawn = []
-            for entry, path in zip(entries, result.paths, strict=True):
-                if path.path.passage == 0:
-                    entry["plot"] = png = f"plots/{path.path.name}.png"
-                    drawn.append((path.joints_before, path.joints_after, stage / png,
-                                  path.path.name))
-            plot_angular_displacements(drawn)
-        merged = trimesh.util.concatenate(list(meshes.values()))
-        assert isinstance(merged, trimesh.Trimesh)
-        stl = merged.export(file_type="stl")
-        assert isinstance(stl, bytes)
-        (stage / "scene.stl").write_bytes(stl)
+            _plots(stage, entries, result, made)
+        (stage / "scene.stl").write_bytes(_scene_stl(meshes, made))
         document = {
             "format": "impeller-cam finish 1",
             "spec": str(spec),

@@ -4,13 +4,15 @@ The chain's rest operation (``cam.run.rest``) plans finishing twice: once agains
 rough stock, and again, after the rest operation, against the stock it left -- but only
 the passes the rest operation was for (those with postures the rough stock blocked).
 Every other pass keeps its first plan: the rest operation only removes material, so a
-plan clean against the rough stock is clean against the rest stock (links, the
-engagement report and the APT files are made again from all the plans).
+plan clean against the rough stock is clean against the rest stock (what the run made
+from the plans is reused the same way where they are kept, ``run_memo``).
 
 ``PlanMemo`` is that store: the planners (``plan.plan_finishing``,
 ``edge_plan.plan_edges``, ``fillet_plan.plan_fillet``) ``recall`` a pass's plan by its
 tool and name (``p<k>.<operation>...``) and ``record`` what they plan. ``again(names)``
-is the memo for the next run: the same plans, ``names`` planned anew.
+is the memo for the next run: the same plans, ``names`` planned anew. It carries the
+``run_memo.RunMemo`` too: what ``run_finish`` made from the plans (scene, links, files),
+taken over by the next run where its plans are the same.
 """
 
 from __future__ import annotations
@@ -18,6 +20,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
+
+from cam.finishing.run_memo import RunMemo
 
 __all__ = ["PlanMemo"]
 
@@ -35,11 +39,14 @@ class PlanMemo:
         Pass names never recalled (planned anew, their new plan recorded).
     recalled : int
         Plans handed out by ``recall``.
+    run : RunMemo
+        What the last run made from its plans (``run_memo``).
     """
 
     plans: dict[tuple[str, str], Any] = field(default_factory=dict)
     replan: frozenset[str] = frozenset()
     recalled: int = 0
+    run: RunMemo = field(default_factory=RunMemo)
 
     def recall(self, tool: str, name: str) -> Any | None:
         """The recorded plan of pass ``name`` with ``tool``; None: plan it."""
@@ -56,4 +63,4 @@ class PlanMemo:
 
     def again(self, names: Iterable[str]) -> PlanMemo:
         """A memo of the same plans in which the passes ``names`` are planned anew."""
-        return PlanMemo(self.plans, frozenset(names))
+        return PlanMemo(self.plans, frozenset(names), run=self.run)

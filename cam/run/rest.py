@@ -33,8 +33,12 @@ leaves out the postures there (finish.json ``cut_short``). The finish stage
    into ``verify/rest/``;
 5. **finishes again against that stock**, planning anew only the passes that held
    those left-out postures; every other pass keeps its plan (clean against the rough
-   stock, so against the smaller rest stock too); links, checks and files are made
-   again from all the plans.
+   stock, so against the smaller rest stock too). The second run takes over from the
+   first what it would make again (``cam.finishing.run_memo``): the design's collision
+   scene, the machine reach check, and the links, link checks, machine entries, APT
+   text and plots of every operation whose plans are all kept; the stock's scene,
+   every path's engagement and the operations holding a pass planned anew are made
+   again.
 
 It leaves at most ``eta`` + the roughing scallop, what roughing is meant to leave.
 The post stage writes its programs between roughing and finishing (operation
@@ -307,7 +311,9 @@ def finish_with_rest(ctx: Context, rough: RoughStock,
     -------
     dict
         The final finish.json. ``rest/rest.json`` gains ``replanned_passes``,
-        ``recalled_plans`` and ``left_out_after`` when finishing ran again.
+        ``recalled_plans``, ``rerun_reused`` (what the second run took over from the
+        first, ``run_memo.RunMemo.reused``) and ``left_out_after`` when finishing ran
+        again.
     """
     from cam.finishing.plan_memo import PlanMemo
 
@@ -320,6 +326,7 @@ def finish_with_rest(ctx: Context, rough: RoughStock,
     document = finish(rest.stock, again)
     record = read_json(ctx, f"{REST}/rest.json", "finish")
     record.update(replanned_passes=len(rest.replan), recalled_plans=again.recalled,
+                  rerun_reused=dict(again.run.reused),
                   left_out_after=_by_passage(document["cut_short"]))
     _write_record(ctx.out / REST, record)
     return document
