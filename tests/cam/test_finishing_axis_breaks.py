@@ -96,7 +96,7 @@ def _flip_pass() -> SimpleNamespace:
     centre = tip + TOOL.radius * axis
     joints = KINS.inverse(tip, axis)
     normal = np.tile([0.0, 0.0, 1.0], (n, 1))
-    path = SimpleNamespace(name="p0.hub.01", passage=0, operation="hub", normal=normal,
+    path = SimpleNamespace(name="p0.hub.01", passage=0, operation="hub", wall=None, normal=normal,
                            away=normal)
     breaks = axis_breaks(centre, axis, math.radians(FinishOptions().max_axis_turn_deg_per_mm))
     return SimpleNamespace(path=path, tip=tip, axis=axis, joints_after=joints, breaks=breaks,
