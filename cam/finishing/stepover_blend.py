@@ -29,14 +29,13 @@ system replaces the corner by a **blend** tangent to both passes:
   (``FinishOptions.cutter_allowance_mm``) against the roles either pass drives and by
   at most ``LinkRules.undriven_allowance`` against the others, the rule the postures
   it joins were planned and the cut moves are checked with (``cam.finishing.driven``),
-  shank and holder ``clearance`` away. A stepover
-  is no stricter than its ends (a stricter one fails at its own first posture: with
-  0.01 mm, 351 of 367 stepovers between nine_blade's swarf_or_point blade pieces did,
-  their flutes 0.01-0.05 mm into the blade mesh) and no looser than the cuts: the
-  continuous check (samples ``step_mm`` apart) sees a chord's dip ``c^2 / (8 R)`` into
-  a convex surface, so a stepover goes no deeper into the design than the allowance,
-  as the cut moves (docs/finishing.md, "One cutting allowance for postures and
-  stepovers").
+  shank and holder ``clearance`` away. A stepover is no stricter than its ends (a
+  stricter one fails at its own first posture: with 0.01 mm, 351 of 367 stepovers
+  between nine_blade's swarf_or_point blade pieces did, their flutes 0.01-0.05 mm into
+  the blade mesh) and no looser than the cuts: the continuous check (samples
+  ``step_mm`` apart) sees a chord's dip ``c^2 / (8 R)`` into a convex surface, so a
+  stepover goes no deeper into the design than the allowance, as the cut moves
+  (docs/finishing.md, "One cutting allowance for postures and stepovers").
 
 Where no blend passes, the straight stepover is checked as before; where that fails
 too the passes are linked the usual way (departure, link, approach).
