@@ -122,6 +122,7 @@ def test_lean_flip_is_made_in_the_air_and_posts(reverse: bool, tmp_path: Path) -
     passes = ordered_passes(results)  # the second pass of a passage runs backwards
     mine = passes[-2:]
     assert [p.from_air for p in mine] == [False, True]
+    assert all(p.driven == ("hub", "fillet") for p in mine)  # its stepovers' roles
     assert [len(p.tip) for p in mine] == [6, 5] if reverse else [5, 6]
     rules = LinkRules(tool=TOOL, feed=900.0, departure=1.0, clearance=0.5,
                       cutter_allowance=0.05, step_mm=0.5, step_rad=math.radians(0.5),
