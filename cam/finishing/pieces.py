@@ -37,6 +37,7 @@ from cam.finishing.kept_run import kept_run
 from cam.finishing.options import FinishOptions
 from cam.finishing.paths import CutterPath, subset_path
 from cam.finishing.plan import PathResult, finish_path
+from cam.finishing.turned_plan import turned_plan
 from cam.tools import Tool
 from geometry.surfaces import ImpellerSurfaces
 from postproc.kinematics import Kinematics
@@ -361,16 +362,27 @@ def finish_ordered(ordered: Sequence[CutterPath], tool: Tool, kins: Kinematics,
 
     The same pass in the previous passage hands on its eq. 7 remedy step
     (``interference.StepHint``), tried first and proven before it is taken, so the
-    results are those without it, with fewer checks. With a ``memo``
+    results are those without it, with fewer checks. A pass that passage 0 planned
+    clean (nothing left out) is, in the other passages, first passage 0's plan turned
+    about the axis and checked again in full (``turned_plan``); it is planned only
+    when that fails a check. With a ``memo``
     (``plan_memo.PlanMemo``) a pass's recorded plan is reused and new plans are
     recorded, each with the causes of its left-out postures.
     """
     results: list[PathResult] = []
     cut_short: list[dict[str, Any]] = []
     hints: dict[str, StepHint | None] = {}
+    first: dict[str, tuple[CutterPath, list[PathResult]]] = {}  # passage 0's clean plans
     for i, path in enumerate(ordered):
         key = path.name.split(".", 1)[1]  # the pass, whatever the passage
         known = None if memo is None else memo.recall(tool.name, path.name)
+        if known is None and key in first and surfaces is not None:
+            turned = turned_plan(first[key][1], first[key][0], path, surfaces.spec.pitch,
+                                 tool, kins, scene, options, surfaces)
+            if turned is not None:
+                known = (turned, np.zeros(0, dtype=np.intp), [])
+                if memo is not None:
+                    memo.record(tool.name, path.name, known)
         if known is None:
             causes: list[str | None] = []
             known = (*finish_runs(path, tool, kins, scene, options, surfaces,
@@ -380,6 +392,8 @@ def finish_ordered(ordered: Sequence[CutterPath], tool: Tool, kins: Kinematics,
         pieces, lost, why = known
         results += pieces
         hints[key] = pieces[0].step_hint if len(pieces) == 1 and not lost.size else None
+        if path.passage == 0 and pieces and not lost.size:
+            first[key] = (path, pieces)
         if lost.size:
             cut_short.append(cut_short_entry(path, lost, why))
         if progress is not None:
