@@ -118,14 +118,38 @@ def cast_mesh(
     fill = offsets[:-1].copy()
     hits = np.zeros(int(offsets[-1]))
     _cast(pi, pj, pk, faces, origin, shape_a, pitch, False, counts, fill, hits)
-    ray_of_hit = np.repeat(np.arange(n_rays, dtype=np.int64), counts)
-    order = np.lexsort((hits, ray_of_hit))
-    hits = hits[order]
-    # rank of each hit within its ray; pair even with the following odd
-    rank = np.arange(len(hits)) - offsets[ray_of_hit]
-    pair_start = (rank % 2 == 0) & (rank + 1 < counts[ray_of_hit])
-    idx = np.flatnonzero(pair_start)
-    lo = hits[idx]
-    hi = hits[idx + 1]
-    keep = hi > lo
-    return ray_of_hit[idx][keep], lo[keep], hi[keep]
+    rays, lo, hi = _pair_hits(hits, offsets)
+    return rays, lo, hi
+
+
+@njit(cache=True)
+def _pair_hits(hits, offsets):  # type: ignore[no-untyped-def]
+    """Sort each ray's hits (``hits[offsets[r]:offsets[r + 1]]``, in place) and pair
+    them, the 1st with the 2nd, the 3rd with the 4th, ... (an odd last hit is dropped;
+    empty pairs too). Returns the rays, starts and ends of the intervals.
+
+    A stable insertion sort per ray (a ray has a few hits): the order and values of a
+    stable sort of all hits by (ray, position), in one pass over the hits.
+    """
+    n_rays = offsets.shape[0] - 1
+    rays = np.empty(hits.shape[0] // 2, np.int64)
+    lo = np.empty(hits.shape[0] // 2)
+    hi = np.empty(hits.shape[0] // 2)
+    n = 0
+    for r in range(n_rays):
+        a = offsets[r]
+        b = offsets[r + 1]
+        for m in range(a + 1, b):
+            x = hits[m]
+            q = m
+            while q > a and hits[q - 1] > x:
+                hits[q] = hits[q - 1]
+                q -= 1
+            hits[q] = x
+        for m in range(a, b - 1, 2):
+            if hits[m + 1] > hits[m]:
+                rays[n] = r
+                lo[n] = hits[m]
+                hi[n] = hits[m + 1]
+                n += 1
+    return rays[:n], lo[:n], hi[:n]
