@@ -32,6 +32,19 @@ def _top_left(ax, ay, bx, by):  # type: ignore[no-untyped-def]
     return dy > 0.0 or (dy == 0.0 and dx < 0.0)
 
 
+@njit(cache=True, inline="always")
+def _row_span(ax, ay, bx, by, px, pad, ylo, yhi):  # type: ignore[no-untyped-def]
+    """``(ylo, yhi)`` widened to the point(s) of edge a->b on the line ``x = px``
+    (the nearer end for a line within ``pad`` beyond the edge's ends)."""
+    if px < min(ax, bx) - pad or px > max(ax, bx) + pad:
+        return ylo, yhi
+    if ax == bx:
+        return min(ylo, ay, by), max(yhi, ay, by)
+    t = min(max((px - ax) / (bx - ax), 0.0), 1.0)
+    y = ay + t * (by - ay)
+    return min(ylo, y), max(yhi, y)
+
+
 @njit(cache=True)
 def _cast(pi, pj, pk, faces, origin, shape, h, count_only, counts, fill, t_out):  # type: ignore[no-untyped-def]
     nj = shape[1]
@@ -52,9 +65,22 @@ def _cast(pi, pj, pk, faces, origin, shape, h, count_only, counts, fill, t_out):
         tl0 = _top_left(x1, y1, x2, y2)
         tl1 = _top_left(x2, y2, x0, y0)
         tl2 = _top_left(x0, y0, x1, y1)
+        # slack of the row spans: far above the rounding of the edge functions (a ray
+        # outside the triangle by less than that could pass them), far below a pitch
+        pad = 1e-6 + 1e-9 * (abs(x0) + abs(x1) + abs(x2) + abs(y0) + abs(y1) + abs(y2))
         for ii in range(i0, i1 + 1):
             px = origin[0] + (ii + 0.5) * h
-            for jj in range(j0, j1 + 1):
+            # the rays of this row the triangle can cover: its section by the row's
+            # line, widened by pad (a sliver of a revolved blank spans a fraction of
+            # its bounding box); the edge functions still decide every ray
+            ylo, yhi = _row_span(x0, y0, x1, y1, px, pad, math.inf, -math.inf)
+            ylo, yhi = _row_span(x1, y1, x2, y2, px, pad, ylo, yhi)
+            ylo, yhi = _row_span(x2, y2, x0, y0, px, pad, ylo, yhi)
+            if ylo > yhi:
+                continue
+            ja = max(j0, int(math.ceil((ylo - pad - origin[1]) / h - 0.5)))
+            jb = min(j1, int(math.floor((yhi + pad - origin[1]) / h - 0.5)))
+            for jj in range(ja, jb + 1):
                 py = origin[1] + (jj + 0.5) * h
                 w0 = _edge(x1, y1, x2, y2, px, py)
                 if w0 < 0.0 or (w0 == 0.0 and not tl0):
@@ -118,14 +144,38 @@ def cast_mesh(
     fill = offsets[:-1].copy()
     hits = np.zeros(int(offsets[-1]))
     _cast(pi, pj, pk, faces, origin, shape_a, pitch, False, counts, fill, hits)
-    ray_of_hit = np.repeat(np.arange(n_rays, dtype=np.int64), counts)
-    order = np.lexsort((hits, ray_of_hit))
-    hits = hits[order]
-    # rank of each hit within its ray; pair even with the following odd
-    rank = np.arange(len(hits)) - offsets[ray_of_hit]
-    pair_start = (rank % 2 == 0) & (rank + 1 < counts[ray_of_hit])
-    idx = np.flatnonzero(pair_start)
-    lo = hits[idx]
-    hi = hits[idx + 1]
-    keep = hi > lo
-    return ray_of_hit[idx][keep], lo[keep], hi[keep]
+    rays, lo, hi = _pair_hits(hits, offsets)
+    return rays, lo, hi
+
+
+@njit(cache=True)
+def _pair_hits(hits, offsets):  # type: ignore[no-untyped-def]
+    """Sort each ray's hits (``hits[offsets[r]:offsets[r + 1]]``, in place) and pair
+    them, the 1st with the 2nd, the 3rd with the 4th, ... (an odd last hit is dropped;
+    empty pairs too). Returns the rays, starts and ends of the intervals.
+
+    A stable insertion sort per ray (a ray has a few hits): the order and values of a
+    stable sort of all hits by (ray, position), in one pass over the hits.
+    """
+    n_rays = offsets.shape[0] - 1
+    rays = np.empty(hits.shape[0] // 2, np.int64)
+    lo = np.empty(hits.shape[0] // 2)
+    hi = np.empty(hits.shape[0] // 2)
+    n = 0
+    for r in range(n_rays):
+        a = offsets[r]
+        b = offsets[r + 1]
+        for m in range(a + 1, b):
+            x = hits[m]
+            q = m
+            while q > a and hits[q - 1] > x:
+                hits[q] = hits[q - 1]
+                q -= 1
+            hits[q] = x
+        for m in range(a, b - 1, 2):
+            if hits[m + 1] > hits[m]:
+                rays[n] = r
+                lo[n] = hits[m]
+                hi[n] = hits[m + 1]
+                n += 1
+    return rays[:n], lo[:n], hi[:n]
