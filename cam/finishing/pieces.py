@@ -37,6 +37,7 @@ from cam.finishing.kept_run import kept_run
 from cam.finishing.options import FinishOptions
 from cam.finishing.paths import CutterPath, subset_path
 from cam.finishing.plan import PathResult, finish_path
+from cam.finishing.stock_clearance import STOCK_ROLE, stock_blocks
 from cam.finishing.turned_plan import turned_plan
 from cam.tools import Tool
 from geometry.surfaces import ImpellerSurfaces
@@ -263,7 +264,9 @@ def finish_runs(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collision
     causes : list, optional
         Filled with what each point left out meets in the whole pass's plan (its
         posture's ``hit_role``: a design face's role, ``"stock"``, ``"machine"``;
-        None: a rule, a motion or an open end's tail), one per ``lost`` point.
+        ``"stock"`` also where shank or holder come too close to the excess stock,
+        at the posture or on the motion from it; None: a rule, a design clearance, a
+        motion or an open end's tail; ``_causes``), one per ``lost`` point.
 
     Returns
     -------
@@ -303,9 +306,29 @@ def finish_runs(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collision
     if results:
         results[0].trimmed = len(path) - sum(len(piece.path) for piece in results)
     if causes is not None:
-        roles = plan.interference.hit_role
-        causes[:] = [roles[i] if i < len(roles) else None for i in lost.tolist()]
+        causes[:] = _causes(plan, lost, tool, scene, options)
     return results, lost
+
+
+def _causes(plan: PathResult, lost: NDArray[np.intp], tool: Tool, scene: CollisionScene,
+            options: FinishOptions) -> list[str | None]:
+    """What each point ``lost`` meets in the whole pass's plan ``plan``: the role its
+    posture touches (``hit_role``), else ``"stock"`` where the excess stock blocks
+    its shank or holder (posture, or the motion from it: a clearance, not a contact,
+    so no role; ``stock_clearance.stock_blocks``), else None (a rule, a design
+    clearance, the motion, an open end's tail)."""
+    roles = plan.interference.hit_role
+    out = [roles[i] if i < len(roles) else None for i in lost.tolist()]
+    ask = np.array([i for i, role in zip(lost.tolist(), out, strict=True)
+                    if role is None and i < len(roles)], dtype=np.intp)
+    if ask.size:
+        blocked = stock_blocks(scene, tool, plan.tip, plan.axis, ask,
+                               options.cutter_allowance_mm, options.clearance_mm,
+                               options.motion_step_mm, options.motion_step_deg)
+        stock = set(ask[blocked].tolist())
+        out = [STOCK_ROLE if i in stock else role
+               for i, role in zip(lost.tolist(), out, strict=True)]
+    return out
 
 
 def _renamed(result: PathResult, name: str, whole: str) -> PathResult:
@@ -367,7 +390,8 @@ def finish_ordered(ordered: Sequence[CutterPath], tool: Tool, kins: Kinematics,
     about the axis and checked again in full (``turned_plan``); it is planned only
     when that fails a check. With a ``memo``
     (``plan_memo.PlanMemo``) a pass's recorded plan is reused and new plans are
-    recorded, each with the causes of its left-out postures.
+    recorded, each with the causes of its left-out postures; a pass planned anew
+    keeps its recorded plan when that leaves fewer postures out (``_fewer_left_out``).
     """
     results: list[PathResult] = []
     cut_short: list[dict[str, Any]] = []
@@ -388,6 +412,7 @@ def finish_ordered(ordered: Sequence[CutterPath], tool: Tool, kins: Kinematics,
             known = (*finish_runs(path, tool, kins, scene, options, surfaces,
                                   hint=hints.get(key), causes=causes), causes)
             if memo is not None:
+                known = _fewer_left_out(known, memo.plans.get((tool.name, path.name)))
                 memo.record(tool.name, path.name, known)
         pieces, lost, why = known
         results += pieces
@@ -399,3 +424,19 @@ def finish_ordered(ordered: Sequence[CutterPath], tool: Tool, kins: Kinematics,
         if progress is not None:
             progress(i + 1, len(ordered), path.name)
     return results, cut_short
+
+
+def _fewer_left_out(new: tuple[list[PathResult], NDArray[np.intp], list[str | None]],
+                    earlier: Any) -> tuple[list[PathResult], NDArray[np.intp], list[str | None]]:
+    """A pass's new plan, or its ``earlier`` one (a memo's: planned against the rough
+    stock) when that leaves fewer postures out.
+
+    The chain plans a pass again after the rest operation, which only removes
+    material: the earlier plan's pieces stay clean against the smaller stock, so
+    planning anew never leaves more out than before (on the splitter a junction pass
+    planned against the rest stock left 8 postures out where its rough-stock plan
+    left 5).
+    """
+    if earlier is not None and len(earlier[1]) < len(new[1]):
+        return earlier  # type: ignore[no-any-return]
+    return new

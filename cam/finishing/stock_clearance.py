@@ -56,7 +56,7 @@ if TYPE_CHECKING:
     from cam.verify.stock import Stock
 
 __all__ = ["STOCK_ROLE", "StockExcess", "StockScene", "engagement", "excess_voxels",
-           "stock_blocked", "voxel_mesh"]
+           "stock_blocked", "stock_blocks", "stock_scene_of", "voxel_mesh"]
 
 Array = NDArray[np.float64]
 #: Role name of the excess stock in reports (``PostureReport.hit_role``).
@@ -349,6 +349,65 @@ def stock_blocked(scene: StockScene, tool: Tool, tip: Array, axis: Array,
                                         clearance_limits=(clearance,))
     clear = np.asarray(report.clearance, dtype=np.float64)
     return np.asarray(report.collides, dtype=bool) | (np.isfinite(clear) & (clear < clearance))
+
+
+def stock_scene_of(scene: Any) -> StockScene | None:
+    """The ``StockScene`` inside a finishing scene's wrappers (machine obstacle,
+    ``DrivenScene``: their ``inner``); None when the scene holds no stock."""
+    while not isinstance(scene, StockScene):
+        scene = vars(scene).get("inner")  # vars: not the wrappers' forwarding
+        if scene is None:
+            return None
+    return scene
+
+
+def stock_blocks(scene: Any, tool: Tool, tip: Array, axis: Array, index: NDArray[np.intp],
+                 cutter_allowance: float, clearance: float, max_step_mm: float,
+                 max_step_deg: float) -> NDArray[np.bool_]:
+    """Which postures ``index`` of a pass the excess stock blocks: shank or holder
+    touch it or come closer than ``clearance`` (mm) to it at the posture or along the
+    motion to the next posture (``interference.InterferenceResult.interfering_points``
+    marks a bad motion at its start).
+
+    A posture kept from the pass this way has no contact role (the stock's clearance
+    is not a contact: ``PostureReport.hit_role`` is None), so ``pieces.finish_runs``
+    asks this for the cause of its left-out postures.
+
+    Parameters
+    ----------
+    scene : scene
+        A finishing scene (``stock_scene_of``); none with stock: nothing is blocked.
+    tip, axis : (n, 3) float64
+        The pass's postures, mm and unit axes.
+    index : (k,) intp
+        The postures asked about.
+    max_step_mm, max_step_deg : float
+        Sub-sampling of the motions (the options' ``motion_step_mm`` / ``_deg``).
+
+    Returns
+    -------
+    (k,) bool
+    """
+    index = np.asarray(index, dtype=np.intp)
+    found = stock_scene_of(scene)
+    if found is None or not index.size:
+        return np.zeros(len(index), dtype=bool)
+    clearance = max(clearance - found.offset, 0.0)
+    blocked = stock_blocked(found, tool, tip[index], axis[index], cutter_allowance, clearance)
+    if found.stock is None:
+        return blocked
+    for k, i in enumerate(index.tolist()):
+        if blocked[k] or i + 1 >= len(tip):
+            continue
+        motion = found.stock.check_motion(
+            tool, tip[i:i + 2], axis[i:i + 2], max_step_mm=max_step_mm,
+            max_step_deg=max_step_deg, parts=("shank", "holder"),
+            cutter_allowance=cutter_allowance, clearance_cap=clearance,
+            clearance_limits=(clearance,))
+        clear = np.asarray(motion.clearance, dtype=np.float64)
+        blocked[k] = bool(np.asarray(motion.collides, dtype=bool).any()
+                          or (np.isfinite(clear) & (clear < clearance)).any())
+    return blocked
 
 
 def engagement(excess: StockExcess, tool: Tool, tip: Array, axis: Array
