@@ -36,7 +36,7 @@ from cam.finishing.interference import StepHint
 from cam.finishing.kept_run import kept_run
 from cam.finishing.options import FinishOptions
 from cam.finishing.paths import CutterPath, subset_path
-from cam.finishing.plan import PathResult, finish_path
+from cam.finishing.plan import PathResult, finish_path, tail_end
 from cam.tools import Tool
 from geometry.surfaces import ImpellerSurfaces
 from postproc.kinematics import Kinematics
@@ -89,7 +89,7 @@ def _trimmed(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionSce
         size = len(result.path)
         head, tail = bad[bad < size // 2], bad[bad >= size // 2]
         first = int(head.max()) + 1 if head.size else 0
-        last = int(tail.min()) if tail.size else size
+        last = tail_end(result, tail)
         if last - first < max(2, (length + 1) // 2):
             break
         keep = np.arange(first, last, dtype=np.intp)
