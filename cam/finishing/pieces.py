@@ -105,7 +105,8 @@ def finish_trimmed(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collis
     """``finish_path``, then shortened at either end where postures break a rule.
 
     Offending postures in the first half move the start past the last of them, those
-    in the second half the end before the first of them; finished again (at most
+    in the second half the end before the first of them (after the start of an
+    interfering motion: ``plan.tail_end``); finished again (at most
     ``TRIM_ROUNDS`` times, while at least half the points remain). ``trimmed`` is
     the number of points cut.
     """

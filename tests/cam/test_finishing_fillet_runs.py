@@ -236,3 +236,19 @@ def test_a_pass_with_nothing_clean_is_dropped(monkeypatch: pytest.MonkeyPatch) -
     pieces, lost, _ = _run(monkeypatch, 5, {0.0, 1.0, 2.0, 3.0, 4.0})
     assert pieces == [] and lost.tolist() == [0, 1, 2, 3, 4]
     assert cut_short_entry(_path(5), lost)["dropped"]
+
+
+def test_tail_end_keeps_a_clean_posture_whose_motion_interferes() -> None:
+    """``plan.tail_end`` (also ``finish_path``'s trim of an open-ended pass): a posture
+    that interferes or breaks a rule ends the pass before itself, an interfering motion
+    ``i -> i + 1`` only after its start ``i``."""
+    from cam.finishing.plan import tail_end
+
+    x = [float(v) for v in range(8)]
+    motion = SimpleNamespace(path=_path(8), rule_points=np.zeros(0, dtype=np.intp),
+                             interference=_interference(x, {6.0}, frozenset({5.0, 6.0})))
+    assert tail_end(motion, np.array([5, 6])) == 6  # type: ignore[arg-type]
+    ruled = SimpleNamespace(path=_path(8), rule_points=np.array([5], dtype=np.intp),
+                            interference=_interference(x, {6.0}, frozenset({5.0, 6.0})))
+    assert tail_end(ruled, np.array([5, 6])) == 5  # type: ignore[arg-type]
+    assert tail_end(motion, np.zeros(0, dtype=np.intp)) == 8  # type: ignore[arg-type]
