@@ -36,7 +36,7 @@ from cam.finishing.interference import StepHint
 from cam.finishing.kept_run import kept_run
 from cam.finishing.options import FinishOptions
 from cam.finishing.paths import CutterPath, subset_path
-from cam.finishing.plan import PathResult, finish_path
+from cam.finishing.plan import PathResult, finish_path, tail_end
 from cam.finishing.stock_clearance import STOCK_ROLE, stock_blocks
 from cam.finishing.turned_plan import turned_plan
 from cam.tools import Tool
@@ -91,7 +91,7 @@ def _trimmed(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionSce
         size = len(result.path)
         head, tail = bad[bad < size // 2], bad[bad >= size // 2]
         first = int(head.max()) + 1 if head.size else 0
-        last = int(tail.min()) if tail.size else size
+        last = tail_end(result, tail)
         if last - first < max(2, (length + 1) // 2):
             break
         keep = np.arange(first, last, dtype=np.intp)
@@ -107,7 +107,8 @@ def finish_trimmed(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collis
     """``finish_path``, then shortened at either end where postures break a rule.
 
     Offending postures in the first half move the start past the last of them, those
-    in the second half the end before the first of them; finished again (at most
+    in the second half the end before the first of them (after the start of an
+    interfering motion: ``plan.tail_end``); finished again (at most
     ``TRIM_ROUNDS`` times, while at least half the points remain). ``trimmed`` is
     the number of points cut.
     """

@@ -64,6 +64,7 @@ __all__ = [
     "junction_errors",
     "plan_finishing",
     "remove_reversals",
+    "tail_end",
     "reversal_counts",
 ]
 
@@ -217,6 +218,25 @@ def junction_errors(path: CutterPath, centres: Array, hub: RevolvedSurface, radi
 _TRIM_ROUNDS = 3
 
 
+def tail_end(result: PathResult, bad: NDArray[np.intp]) -> int:
+    """Where a pass ends when it is cut before its offending points ``bad`` (exclusive).
+
+    ``bad`` are indices into ``result.path`` as ``pieces.offenders`` gives them: a
+    posture that interferes or breaks a rule, or the start ``i`` of a motion ``i -> i +
+    1`` that interferes. The pass ends before the first offending posture, or after
+    the start of the first offending motion (that posture is clean and the motion is
+    no longer made). Ending before a motion's start lost one clean posture per cut: on
+    the splitter the fillet passes round the trailing edges, where the neck passes the
+    in-process stock, kept their last posture inside the outlet rim (r 79.2 mm) when the
+    next one, beyond the rim, was clean.
+    """
+    inter = result.interference
+    posture = inter.collides.copy()
+    posture[result.rule_points] = True
+    ends = [i if posture[i] else i + 1 for i in np.asarray(bad, dtype=np.intp).tolist()]
+    return min(ends) if ends else len(result.path)
+
+
 def finish_path(path: CutterPath, tool: Tool, kins: Kinematics, scene: CollisionScene,
                 options: FinishOptions, surfaces: ImpellerSurfaces | None = None,
                 hint: StepHint | None = None) -> PathResult:
@@ -235,9 +255,10 @@ def finish_path(path: CutterPath, tool: Tool, kins: Kinematics, scene: Collision
     length = len(path)
     for _ in range(_TRIM_ROUNDS if path.open_end else 0):
         bad = np.union1d(result.interference.interfering_points, result.rule_points)
-        if not bad.size or bad[0] < max(2, (length + 1) // 2):
+        end = tail_end(result, bad)
+        if not bad.size or end < max(2, (length + 1) // 2):
             break
-        keep = np.arange(int(bad[0]), dtype=np.intp)
+        keep = np.arange(end, dtype=np.intp)
         result = _finish_once(subset_path(result.path, keep), tool, kins, scene, options,
                               surfaces)
     result.trimmed = length - len(result.path)

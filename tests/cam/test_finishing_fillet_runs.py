@@ -32,23 +32,37 @@ def _path(n: int) -> CutterPath:
                       opposite_tip=centre + 10.0, curve_u=np.linspace(0.0, 0.1, n))
 
 
-def _stand_in(blocked: set[float], calls: list[list[float]]) -> Any:
-    """``finish_path`` whose postures at the X positions ``blocked`` interfere."""
+def _interference(x: list[float], blocked: set[float],
+                  moves: frozenset[float] = frozenset()) -> SimpleNamespace:
+    """The check of postures at the X positions ``x``: those at ``blocked`` interfere,
+    and the motion from one at ``moves`` to the next (when the piece has a next)."""
+    collides = np.array([v in blocked for v in x], dtype=bool)
+    motion = np.array([v in moves for v in x[:-1]], dtype=bool)
+    bad = collides.copy()
+    bad[:-1] |= motion
+    return SimpleNamespace(interfering_points=np.flatnonzero(bad).astype(np.intp),
+                           collides=collides, motion_collides=motion)
+
+
+def _stand_in(blocked: set[float], calls: list[list[float]],
+              moves: frozenset[float] = frozenset()) -> Any:
+    """``finish_path`` whose postures at the X positions ``blocked`` interfere (and the
+    motions from those at ``moves`` to the next)."""
     def finish(path: CutterPath, *_: Any, **__: Any) -> Any:
         x = path.centre[:, 0].tolist()
         calls.append(x)
-        bad = np.array([i for i, v in enumerate(x) if v in blocked], dtype=np.intp)
         return SimpleNamespace(path=path, trimmed=0, rule_points=np.zeros(0, dtype=np.intp),
-                               interference=SimpleNamespace(interfering_points=bad),
+                               interference=_interference(x, blocked, moves),
                                axis=path.reference_axis)
     return finish
 
 
 def _run(monkeypatch: pytest.MonkeyPatch, n: int, blocked: set[float],
-         accept: Any = None) -> tuple[list[Any], np.ndarray, list[list[float]]]:
+         accept: Any = None, moves: frozenset[float] = frozenset()
+         ) -> tuple[list[Any], np.ndarray, list[list[float]]]:
     calls: list[list[float]] = []
-    monkeypatch.setattr(pieces_mod, "finish_path", _stand_in(blocked, calls))
-    again = _stand_in(blocked, [])
+    monkeypatch.setattr(pieces_mod, "finish_path", _stand_in(blocked, calls, moves))
+    again = _stand_in(blocked, [], moves)
     monkeypatch.setattr(pieces_mod, "kept_run",
                         lambda result, run, *_: again(subset_path(result.path, run)))
     pieces, lost = finish_runs(_path(n), None, None, None, None, None,  # type: ignore[arg-type]
@@ -66,6 +80,21 @@ def test_the_clean_head_before_the_offenders_is_kept(monkeypatch: pytest.MonkeyP
                                              "p0.fillet.splitter0.suction.01.le.2"]
     assert lost.tolist() == [2, 3]
     assert pieces[0].trimmed == 2 and pieces[1].trimmed == 0
+
+
+def test_a_tail_cut_at_an_interfering_motion_keeps_the_motion_s_start(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The splitter's fillet passes round the trailing edges (in-process stock by the
+    neck beyond the outlet rim): posture 6 of 8 and the motions 5 -> 6 and 6 -> 7
+    interfere. Posture 5 is clean and ending there drops the motion from it, so the
+    pass keeps 0-5 (it ended at 4, short of the rim, before); 7 alone is no piece."""
+    pieces, lost, calls = _run(monkeypatch, 8, {6.0}, moves=frozenset({5.0, 6.0}))
+    assert [p.path.centre[:, 0].tolist() for p in pieces] == [[0.0, 1.0, 2.0, 3.0, 4.0, 5.0]]
+    assert lost.tolist() == [6, 7]
+    assert calls[1] == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
+    # a motion offending at the head still moves the start past the motion's start
+    pieces, lost, _ = _run(monkeypatch, 8, set(), moves=frozenset({1.0}))
+    assert pieces[-1].path.centre[:, 0].tolist() == [2.0, 3.0, 4.0, 5.0, 6.0, 7.0]
 
 
 def test_a_clean_pass_is_one_path_with_its_own_name(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -178,9 +207,8 @@ def _stand_in_by_call(blocked: list[set[float]], calls: list[list[float]]) -> An
         x = path.centre[:, 0].tolist()
         calls.append(x)
         now = blocked[min(len(calls), len(blocked)) - 1]
-        bad = np.array([i for i, v in enumerate(x) if v in now], dtype=np.intp)
         return SimpleNamespace(path=path, trimmed=0, rule_points=np.zeros(0, dtype=np.intp),
-                               interference=SimpleNamespace(interfering_points=bad),
+                               interference=_interference(x, now),
                                axis=path.reference_axis, piece_of=None)
     return finish
 
@@ -208,3 +236,19 @@ def test_a_pass_with_nothing_clean_is_dropped(monkeypatch: pytest.MonkeyPatch) -
     pieces, lost, _ = _run(monkeypatch, 5, {0.0, 1.0, 2.0, 3.0, 4.0})
     assert pieces == [] and lost.tolist() == [0, 1, 2, 3, 4]
     assert cut_short_entry(_path(5), lost)["dropped"]
+
+
+def test_tail_end_keeps_a_clean_posture_whose_motion_interferes() -> None:
+    """``plan.tail_end`` (also ``finish_path``'s trim of an open-ended pass): a posture
+    that interferes or breaks a rule ends the pass before itself, an interfering motion
+    ``i -> i + 1`` only after its start ``i``."""
+    from cam.finishing.plan import tail_end
+
+    x = [float(v) for v in range(8)]
+    motion = SimpleNamespace(path=_path(8), rule_points=np.zeros(0, dtype=np.intp),
+                             interference=_interference(x, {6.0}, frozenset({5.0, 6.0})))
+    assert tail_end(motion, np.array([5, 6])) == 6  # type: ignore[arg-type]
+    ruled = SimpleNamespace(path=_path(8), rule_points=np.array([5], dtype=np.intp),
+                            interference=_interference(x, {6.0}, frozenset({5.0, 6.0})))
+    assert tail_end(ruled, np.array([5, 6])) == 5  # type: ignore[arg-type]
+    assert tail_end(motion, np.zeros(0, dtype=np.intp)) == 8  # type: ignore[arg-type]
