@@ -183,7 +183,7 @@ def _finishing_postures(name: str, tool: str, options: dict[str, float]
         calls.append((np.asarray(tip).copy(), np.asarray(axis).copy(), dict(kw)))
         return check(tool_, tip, axis, **kw)  # type: ignore[arg-type]
 
-    scene.check_postures = record  # type: ignore[method-assign]
+    scene.check_postures = record  # type: ignore[method-assign, assignment]
     kins = kinematics_for(load_machine(ROOT / "fixtures" / "machines" / "xyzac-trt.toml"))
     plan_finishing(surfaces, resolve_tool(tool), kins, scene,
                    FinishOptions.from_mapping(dict(options, passages=1)),
