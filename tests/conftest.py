@@ -23,15 +23,25 @@ LinuxCNC's impeller demo and other tests that take more than about 15 s of a cor
 ``acceptance`` marks whole main-job-size chains (tens of minutes each): they run only
 with ``pytest --acceptance``. The terminal summary shows the seconds each tier took
 (``tier_seconds``: setup, call and teardown summed over the tests of the tier, on
-whichever worker ran them), so that a test growing out of its tier is seen.
+whichever worker ran them), so that a test growing out of its tier is seen, and
+the CPU seconds they took (``tier_cpu_seconds``: the worker process's and the
+subprocesses it waited for; on a shared, loaded machine the wall seconds grow with
+the load, the CPU seconds hardly: compare those between runs on a busy machine).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import resource
+import time
+from collections.abc import Generator, Iterable
 from typing import Any
 
 import pytest
+
+#: ``user_properties`` key of a report's CPU seconds (``cpu_seconds``).
+CPU_KEY = "cpu_s"
+_CPU_START = pytest.StashKey[float]()
+_CPU_SPENT = pytest.StashKey[float]()
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -75,6 +85,44 @@ def in_module_order(items: list[pytest.Item]) -> list[pytest.Item]:
     return [item for name in order for item in modules[name]]
 
 
+def cpu_seconds() -> float:
+    """CPU seconds (user + system) of this process's threads and of the subprocesses
+    it has waited for."""
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_setup(item: pytest.Item) -> Generator[None, None, None]:
+    yield from _cpu_of_phase(item)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_call(item: pytest.Item) -> Generator[None, None, None]:
+    yield from _cpu_of_phase(item)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_teardown(item: pytest.Item) -> Generator[None, None, None]:
+    yield from _cpu_of_phase(item)
+
+
+def _cpu_of_phase(item: pytest.Item) -> Generator[None, None, None]:
+    item.stash[_CPU_START] = cpu_seconds()
+    yield
+    item.stash[_CPU_SPENT] = cpu_seconds() - item.stash[_CPU_START]
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo[None]
+                              ) -> Generator[None, Any, None]:
+    outcome = yield
+    spent = item.stash.get(_CPU_SPENT, None)
+    if spent is not None:  # the phase's CPU seconds travel with its report to the controller
+        outcome.get_result().user_properties.append((CPU_KEY, spent))
+        del item.stash[_CPU_SPENT]
+
+
 def tier_seconds(reports: Iterable[Any]) -> dict[str, tuple[int, float]]:
     """Per tier (``"fast"``, ``"slow"``): the number of tests and the seconds their
     setup, call and teardown took, summed (the workers' seconds, not wall time).
@@ -96,11 +144,33 @@ def tier_seconds(reports: Iterable[Any]) -> dict[str, tuple[int, float]]:
     return {tier: (len(tests[tier]), seconds[tier]) for tier in tests}
 
 
+def tier_cpu_seconds(reports: Iterable[Any]) -> dict[str, float]:
+    """Per tier (``"fast"``, ``"slow"``): the CPU seconds of the tests' setup, call and
+    teardown, summed (``CPU_KEY`` of the reports' ``user_properties``; reports without
+    it count nothing).
+
+    Parameters
+    ----------
+    reports : iterable
+        As for ``tier_seconds``; ``user_properties``: list of (name, value) pairs.
+    """
+    seconds = {"fast": 0.0, "slow": 0.0}
+    for report in reports:
+        if getattr(report, "when", None) not in ("setup", "call", "teardown"):
+            continue
+        tier = "slow" if "slow" in report.keywords else "fast"
+        seconds[tier] += sum(float(value) for key, value in
+                             getattr(report, "user_properties", ()) if key == CPU_KEY)
+    return seconds
+
+
 def pytest_terminal_summary(terminalreporter: Any) -> None:
     reports = [report for replist in terminalreporter.stats.values() for report in replist]
     tiers = tier_seconds(reports)
     if not any(count for count, _ in tiers.values()):
         return
+    cpu = tier_cpu_seconds(reports)
     terminalreporter.write_sep("=", "seconds per tier (summed over the workers)")
     for tier, (count, seconds) in tiers.items():
-        terminalreporter.write_line(f"{tier}: {count} tests, {seconds:.1f} s")
+        terminalreporter.write_line(f"{tier}: {count} tests, {seconds:.1f} s "
+                                    f"(CPU {cpu[tier]:.1f} s)")

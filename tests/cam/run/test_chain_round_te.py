@@ -1,6 +1,7 @@
 """Issue 28 on a design the chain was not tuned on: round trailing edges, a thickness law.
 
-The whole chain (``impeller-cam run``) on ``fixtures/impellers/round_te`` (six blades,
+The chain (``impeller-cam run``, its stages up to verify: motion and report only read
+their outputs; about 4 % of the run) on ``fixtures/impellers/round_te`` (six blades,
 round trailing edges, the design generator's thickness law) at the chain test's coarse
 settings: every milled face (pressure, suction, hub, the strips next to the fillets,
 the fillets, the leading and the round trailing edges) within allowance + scallop +
@@ -27,11 +28,9 @@ def test_every_milled_face_of_the_round_te_design_is_finished(tmp_path: Path) ->
     from cam.run import run_chain
 
     out = tmp_path / "round_te"
-    try:
-        run_chain(SPEC, CHAIN_MACHINE, out, progress=False, servo=False, **CHAIN_SETTINGS)
-    except RuntimeError as error:  # a build without cam.report: every other stage ran
-        if "cam.report" not in str(error):
-            raise
+    # the stages up to the verdict (verify); motion and report only read their outputs
+    for stage in ("geometry", "rough", "finish", "post", "verify"):
+        run_chain(SPEC, CHAIN_MACHINE, out, progress=False, only=stage, **CHAIN_SETTINGS)
 
     def load(relative: str) -> dict[str, Any]:
         data = json.loads((out / relative).read_text())

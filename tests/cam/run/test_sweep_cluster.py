@@ -104,9 +104,11 @@ class Cluster:
                     self.kill(process)
 
 
-@pytest.fixture
-def cluster(tmp_path: Path) -> Iterator[Cluster]:
-    running = Cluster(tmp_path / "cluster", workers=2)
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Cluster]:
+    """One cluster for the module's two cluster tests (its start and the workers'
+    imports are a good part of a test): the killed worker's test comes last."""
+    running = Cluster(tmp_path_factory.mktemp("cluster"), workers=2)
     try:
         yield running
     finally:

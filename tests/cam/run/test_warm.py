@@ -28,3 +28,12 @@ def test_the_dexel_growth_step_compacts_a_grid() -> None:
     grid = warm.warm_dexel_growth()
     assert grid.volume() == pytest.approx(1.0, abs=1e-12)
     assert len(grid.lo) >= 1024 and int(grid.used[0]) >= 1
+
+
+def test_the_test_only_kernels_are_compiled_by_the_warm_up() -> None:
+    """tests/warm_kernels.py also compiles the kernels only tests call from Python."""
+    from cam.collision.gjk import gjk_interval
+    from tests.warm_kernels import warm_test_kernels
+
+    assert warm_test_kernels() >= 0.0
+    assert gjk_interval.signatures  # the test's call compiled (or loaded) its kernel
