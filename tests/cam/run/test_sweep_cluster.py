@@ -66,10 +66,16 @@ class Cluster:
         self.workers: list[subprocess.Popen[bytes]] = []
         self._start([str(DASK), "scheduler", "--scheduler-file", str(self.file), "--port",
                      "0", "--no-dashboard"], root / "scheduler", env)
+        # the scheduler creates its file before it writes it: wait until it parses
         deadline = time.monotonic() + 120
-        while not self.file.is_file() and time.monotonic() < deadline:
-            time.sleep(0.2)
-        self.address = json.loads(self.file.read_text())["address"]
+        while True:
+            try:
+                self.address = json.loads(self.file.read_text())["address"]
+                break
+            except (FileNotFoundError, json.JSONDecodeError, KeyError):
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(0.2)
         for i in range(workers):
             self.workers.append(self._start(
                 [str(DASK), "worker", "--scheduler-file", str(self.file), "--nthreads", "1",
