@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from cam.collision.scene_wrapper import SceneWrapper
 from cam.collision.tool_mesh import PART_NAMES
 
 if TYPE_CHECKING:
@@ -101,7 +102,7 @@ def design_scene(scene: Any) -> CollisionScene:
     return scene
 
 
-class DrivenScene:
+class DrivenScene(SceneWrapper):
     """A scene whose cutter allowance applies to the driven roles only.
 
     Parameters
@@ -122,15 +123,6 @@ class DrivenScene:
         self.driven = tuple(r for r in self.design.roles if r in set(driven))
         self.others = tuple(r for r in self.design.roles if r not in set(driven))
         self.undriven_allowance = float(undriven_allowance)
-
-    def __getattr__(self, name: str) -> Any:
-        if name == "inner":  # not set yet: no recursion
-            raise AttributeError(name)
-        return getattr(self.inner, name)
-
-    def tool_model(self, tool: Tool, cutter_offset: float = 0.0) -> Any:
-        """The wrapped scene's (cached) tool model."""
-        return self.inner.tool_model(tool, cutter_offset)
 
     def _split(self, parts: Collection[str], cutter_allowance: float,
                cutter_roles: Collection[str] | None

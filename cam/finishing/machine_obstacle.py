@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from cam.collision import PART_NAMES, CollisionScene
 from cam.collision.scene import PostureReport
+from cam.collision.scene_wrapper import SceneWrapper
 from cam.verify.machine_query import MachineClearance, joint_path_samples
 from cam.verify.machine_scene import machine_scene
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
@@ -53,7 +54,7 @@ _MACHINE_PART = 2
 Array = NDArray[np.float64]
 
 
-class MachineObstacle(CollisionScene):
+class MachineObstacle(SceneWrapper, CollisionScene):
     """The part's scene and the machine model as one (module docstring).
 
     It does not run ``CollisionScene.__init__``; every attribute it does not define
@@ -82,15 +83,6 @@ class MachineObstacle(CollisionScene):
         self.margin = 0.5 * model.step if margin is None else float(margin)
         self.queries: dict[str, MachineClearance] = {}
         self.every: dict[str, MachineClearance] = {}
-
-    def __getattr__(self, name: str) -> Any:
-        if name == "inner":  # not set yet: no recursion
-            raise AttributeError(name)
-        return getattr(self.inner, name)
-
-    def tool_model(self, tool: Tool, cutter_offset: float = 0.0) -> Any:
-        """The wrapped scene's (cached) tool model."""
-        return self.inner.tool_model(tool, cutter_offset)
 
     def query(self, tool: Tool) -> MachineClearance:
         """The clearance query of ``tool`` (cached per tool name)."""

@@ -48,6 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from cam.collision import CollisionScene
 from cam.collision.scene import PostureReport
+from cam.collision.scene_wrapper import SceneWrapper
 from cam.collision.tool_mesh import PART_NAMES
 from cam.tools import Tool
 
@@ -216,7 +217,7 @@ def voxel_mesh(index: NDArray[np.int64], origin: Array, pitch: float) -> trimesh
     return trimesh.Trimesh(vertices, faces, process=False)
 
 
-class StockScene(CollisionScene):
+class StockScene(SceneWrapper, CollisionScene):
     """The design scene and the excess stock's scene as one (module docstring).
 
     A ``CollisionScene`` to its callers (the planner's type), built around an existing
@@ -233,23 +234,13 @@ class StockScene(CollisionScene):
     """
 
     def __init__(self, design: CollisionScene, excess: StockExcess) -> None:
-        self.design = design
+        self.inner = self.design = design  # everything else is the design scene's
         self.excess = excess
         self.offset = excess.offset
         self.stock: CollisionScene | None = None
         if len(excess.index):
             mesh = voxel_mesh(excess.index, excess.origin, excess.pitch)
             self.stock = CollisionScene({STOCK_ROLE: mesh})
-
-    def __getattr__(self, name: str) -> Any:
-        # everything else (roles, meshes, tool models, ...) is the design scene's
-        if name == "design":  # not set yet: no recursion
-            raise AttributeError(name)
-        return getattr(self.design, name)
-
-    def tool_model(self, tool: Tool, cutter_offset: float = 0.0) -> Any:
-        """The design scene's (cached) tool model."""
-        return self.design.tool_model(tool, cutter_offset)
 
     def _stock_call(self, method: str, tool: Tool, tip: ArrayLike, axis: ArrayLike,
                     parts: Collection[str], cutter_allowance: float, clearance: bool,
