@@ -30,6 +30,7 @@ from postproc.apt_records import (
     UNSUPPORTED_MOTION,
     Record,
     bad,
+    logical_records,
     parse_axis,
     parse_cutter,
     parse_fedrat,
@@ -38,7 +39,6 @@ from postproc.apt_records import (
     parse_tldata,
     parse_tool_number,
     split_args,
-    split_comment,
 )
 from postproc.apt_scan import (
     GOTO_COUNTS,
@@ -304,38 +304,6 @@ class _Interpreter:
         self.note(record, "identity MSYS/ ignored")
 
 
-def _logical_records(
-    scanned: ScannedLines, source: str
-) -> tuple[list[Record], list[Record], set[int]]:
-    """Join ``$`` continuations of the non-plain lines; split GOTOs from the rest.
-
-    Returns the GOTO records that need a record-by-record parse, the other records,
-    and the 0-based indices of lines consumed as continuations.
-    """
-    gotos: list[Record] = []
-    others: list[Record] = []
-    consumed: set[int] = set()
-    nlines = len(scanned.line_start)
-    for index in scanned.other_lines.tolist():
-        if index in consumed:
-            continue
-        code, comment = split_comment(scanned.line_text(index))
-        last = index
-        while code.rstrip().endswith("$"):
-            last += 1
-            if last >= nlines:
-                raise InputError(f"line {index + 1}: '$' continuation at the end of the file",
-                                 file=source, field="$", value=code.strip()[-40:],
-                                 accepted="a continued record followed by its next line")
-            more, more_comment = split_comment(scanned.line_text(last))
-            code = code.rstrip()[:-1] + more
-            comment = more_comment if comment is None else comment
-            consumed.add(last)
-        record = parse_record(index + 1, code, comment, source)
-        (gotos if record.major == "GOTO" else others).append(record)
-    return gotos, others, consumed
-
-
 def parse_apt_document(text: str | bytes, source: str = "<string>") -> AptDocument:
     """Parse CL text into operations and notes. See the module docstring for semantics.
 
@@ -350,7 +318,7 @@ def parse_apt_document(text: str | bytes, source: str = "<string>") -> AptDocume
     buf = text.encode("utf-8") if isinstance(text, str) else text
     buf = buf.removeprefix(b"\xef\xbb\xbf")  # a UTF-8 byte-order mark from Windows exporters
     scanned = scan_lines(normalise_newlines(buf))
-    slow_gotos, records, consumed = _logical_records(scanned, source)
+    slow_gotos, records, consumed = logical_records(scanned, source)
 
     keep = ~np.isin(scanned.goto_line, np.fromiter(consumed, np.int64, len(consumed)))
     fast_lines = scanned.goto_line[keep] + 1

@@ -11,7 +11,7 @@ import re
 from dataclasses import dataclass
 
 from impeller_cam.errors import InputError
-from postproc.apt_scan import NUMBER_RE
+from postproc.apt_scan import NUMBER_RE, ScannedLines
 from postproc.toolpath import Cutter
 
 MM_PER_INCH = 25.4
@@ -257,3 +257,48 @@ def parse_axis(record: Record, source: str) -> tuple[float, float, float] | None
 
 #: How far from 1 the length of a written tool axis may be (rounding in the file).
 AXIS_NORM_TOLERANCE = 1e-3
+
+
+def logical_records(
+    scanned: ScannedLines, source: str
+) -> tuple[list[Record], list[Record], set[int]]:
+    """Join ``$`` continuations of the non-plain lines; split GOTOs from the rest.
+
+    Parameters
+    ----------
+    scanned : ScannedLines
+        The file's lines as ``postproc.apt_scan.scan_lines`` found them.
+    source : str
+        File name for messages.
+
+    Returns
+    -------
+    gotos : list of Record
+        The GOTO records that need a record-by-record parse.
+    others : list of Record
+        The other records, in file order.
+    consumed : set of int
+        0-based indices of the lines consumed as continuations.
+    """
+    gotos: list[Record] = []
+    others: list[Record] = []
+    consumed: set[int] = set()
+    nlines = len(scanned.line_start)
+    for index in scanned.other_lines.tolist():
+        if index in consumed:
+            continue
+        code, comment = split_comment(scanned.line_text(index))
+        last = index
+        while code.rstrip().endswith("$"):
+            last += 1
+            if last >= nlines:
+                raise InputError(f"line {index + 1}: '$' continuation at the end of the file",
+                                 file=source, field="$", value=code.strip()[-40:],
+                                 accepted="a continued record followed by its next line")
+            more, more_comment = split_comment(scanned.line_text(last))
+            code = code.rstrip()[:-1] + more
+            comment = more_comment if comment is None else comment
+            consumed.add(last)
+        record = parse_record(index + 1, code, comment, source)
+        (gotos if record.major == "GOTO" else others).append(record)
+    return gotos, others, consumed

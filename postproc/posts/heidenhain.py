@@ -28,10 +28,11 @@ from impeller_cam.errors import InputError
 from postproc.kinematics import kinematics_for
 from postproc.nc_controls import number_text
 from postproc.posts.base import register_post
+from postproc.posts.blocks import ModalState, WordTable
 from postproc.posts.choices import DialectOption
 from postproc.posts.comments import sanitise_comment
 from postproc.posts.frames import Swivel, frame_rotation, spatial_angles, swivel_segments
-from postproc.posts.gcode import GCodeWriter, _State, _Words
+from postproc.posts.gcode import GCodeWriter
 from postproc.posts.numbers import (
     PAD,
     assemble_lines,
@@ -205,7 +206,7 @@ class HeidenhainPost(GCodeWriter):
         lines = text.splitlines()
         return "".join(f"{k} {line}\n" for k, line in enumerate(lines))
 
-    def _slice(self, out: list[bytes], words: _Words, state: _State, start: int, stop: int,
+    def _slice(self, out: list[bytes], words: WordTable, state: ModalState, start: int, stop: int,
                prefix: str, options: PostOptions) -> None:
         program = words.program
         n = stop - start

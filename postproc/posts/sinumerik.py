@@ -30,10 +30,11 @@ from impeller_cam.errors import InputError
 from postproc.kinematics import kinematics_for
 from postproc.nc_controls import number_text
 from postproc.posts.base import register_post
+from postproc.posts.blocks import ModalState, WordTable
 from postproc.posts.choices import DialectOption
 from postproc.posts.comments import sanitise_comment
 from postproc.posts.frames import Swivel, swivel_segments
-from postproc.posts.gcode import GCodeWriter, _State, _Words
+from postproc.posts.gcode import GCodeWriter
 from postproc.posts.numbers import quantise, word_bytes
 from postproc.posts.pathfeed import path_feeds
 
@@ -163,7 +164,7 @@ class SinumerikPost(GCodeWriter):
             self._vectors = quantise(axes.ravel(), VECTOR_DECIMALS).reshape(-1, 3)
         return super().write(program, options)
 
-    def axis_columns(self, words: _Words, state: _State, start: int, stop: int,
+    def axis_columns(self, words: WordTable, state: ModalState, start: int, stop: int,
                      emit: NDArray[np.bool_], options: PostOptions) -> list[NDArray[np.uint8]]:
         if self._vectors is None or not state.tcp:
             return super().axis_columns(words, state, start, stop, emit, options)
