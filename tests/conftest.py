@@ -27,6 +27,10 @@ whichever worker ran them), so that a test growing out of its tier is seen, and
 the CPU seconds they took (``tier_cpu_seconds``: the worker process's and the
 subprocesses it waited for; on a shared, loaded machine the wall seconds grow with
 the load, the CPU seconds hardly: compare those between runs on a busy machine).
+Then the modules that took the most CPU seconds (``module_seconds``: under loadscope
+the longest module bounds the wall time from below) and, under xdist, when each
+worker finished and its CPU seconds (``worker_seconds``: the idle tail of the worker
+that finished first is what the schedule loses).
 """
 
 from __future__ import annotations
@@ -42,6 +46,8 @@ import pytest
 CPU_KEY = "cpu_s"
 _CPU_START = pytest.StashKey[float]()
 _CPU_SPENT = pytest.StashKey[float]()
+#: Modules listed in the terminal summary, the most CPU seconds first.
+MODULES_SHOWN = 12
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -123,6 +129,18 @@ def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo[None]
         del item.stash[_CPU_SPENT]
 
 
+def _phases(reports: Iterable[Any]) -> Iterable[Any]:
+    """The test reports of a setup, call or teardown phase (not collect reports)."""
+    return (report for report in reports
+            if getattr(report, "when", None) in ("setup", "call", "teardown"))
+
+
+def _cpu(report: Any) -> float:
+    """A phase report's CPU seconds (``CPU_KEY`` of its ``user_properties``), or 0."""
+    return sum(float(value) for key, value in getattr(report, "user_properties", ())
+               if key == CPU_KEY)
+
+
 def tier_seconds(reports: Iterable[Any]) -> dict[str, tuple[int, float]]:
     """Per tier (``"fast"``, ``"slow"``): the number of tests and the seconds their
     setup, call and teardown took, summed (the workers' seconds, not wall time).
@@ -135,9 +153,7 @@ def tier_seconds(reports: Iterable[Any]) -> dict[str, tuple[int, float]]:
     """
     tests: dict[str, set[str]] = {"fast": set(), "slow": set()}
     seconds = {"fast": 0.0, "slow": 0.0}
-    for report in reports:
-        if getattr(report, "when", None) not in ("setup", "call", "teardown"):
-            continue
+    for report in _phases(reports):
         tier = "slow" if "slow" in report.keywords else "fast"
         tests[tier].add(report.nodeid)
         seconds[tier] += float(report.duration)
@@ -155,13 +171,55 @@ def tier_cpu_seconds(reports: Iterable[Any]) -> dict[str, float]:
         As for ``tier_seconds``; ``user_properties``: list of (name, value) pairs.
     """
     seconds = {"fast": 0.0, "slow": 0.0}
-    for report in reports:
-        if getattr(report, "when", None) not in ("setup", "call", "teardown"):
-            continue
-        tier = "slow" if "slow" in report.keywords else "fast"
-        seconds[tier] += sum(float(value) for key, value in
-                             getattr(report, "user_properties", ()) if key == CPU_KEY)
+    for report in _phases(reports):
+        seconds["slow" if "slow" in report.keywords else "fast"] += _cpu(report)
     return seconds
+
+
+def module_seconds(reports: Iterable[Any]) -> list[tuple[str, int, float, float]]:
+    """Per test module: its path, number of tests, seconds and CPU seconds (setup,
+    call and teardown summed), the most CPU first. Under ``--dist loadscope`` a
+    module runs on one worker: the longest module bounds the run's wall time from
+    below, and the list shows where the tiers' seconds go.
+
+    Parameters
+    ----------
+    reports : iterable
+        As for ``tier_seconds`` (``nodeid`` ``path::name``).
+    """
+    tests: dict[str, set[str]] = {}
+    seconds: dict[str, list[float]] = {}
+    for report in _phases(reports):
+        module = report.nodeid.split("::", 1)[0]
+        tests.setdefault(module, set()).add(report.nodeid)
+        spent = seconds.setdefault(module, [0.0, 0.0])
+        spent[0] += float(report.duration)
+        spent[1] += _cpu(report)
+    return sorted(((module, len(tests[module]), wall, cpu)
+                   for module, (wall, cpu) in seconds.items()), key=lambda row: -row[3])
+
+
+def worker_seconds(reports: Iterable[Any]) -> dict[str, tuple[float, float, float]]:
+    """Per worker (pytest-xdist's gateway id, ``"master"`` without xdist): the wall
+    clock of its first phase's start and its last phase's end (s since the epoch) and
+    its CPU seconds summed. The workers' ends differ by the idle tail of the one that
+    finished first: the schedule's loss on two cores.
+
+    Parameters
+    ----------
+    reports : iterable
+        As for ``tier_seconds``, with ``start`` and ``stop`` (s since the epoch) and,
+        under xdist, ``node.gateway.id``.
+    """
+    spans: dict[str, list[float]] = {}
+    for report in _phases(reports):
+        gateway = getattr(getattr(report, "node", None), "gateway", None)
+        worker = str(getattr(gateway, "id", "master"))
+        start, stop = float(getattr(report, "start", 0.0)), float(getattr(report, "stop", 0.0))
+        span = spans.setdefault(worker, [start, stop, 0.0])
+        span[0], span[1] = min(span[0], start), max(span[1], stop)
+        span[2] += _cpu(report)
+    return {worker: (first, last, cpu) for worker, (first, last, cpu) in sorted(spans.items())}
 
 
 def pytest_terminal_summary(terminalreporter: Any) -> None:
@@ -174,3 +232,17 @@ def pytest_terminal_summary(terminalreporter: Any) -> None:
     for tier, (count, seconds) in tiers.items():
         terminalreporter.write_line(f"{tier}: {count} tests, {seconds:.1f} s "
                                     f"(CPU {cpu[tier]:.1f} s)")
+    modules = module_seconds(reports)
+    terminalreporter.write_sep("-", "seconds per module (the most CPU first, "
+                                    f"{min(len(modules), MODULES_SHOWN)} of {len(modules)})")
+    for module, count, seconds, spent in modules[:MODULES_SHOWN]:
+        terminalreporter.write_line(f"{module}: {count} tests, {seconds:.1f} s "
+                                    f"(CPU {spent:.1f} s)")
+    workers = worker_seconds(reports)
+    if len(workers) > 1:
+        start = min(first for first, _, _ in workers.values())
+        end = max(last for _, last, _ in workers.values())
+        terminalreporter.write_line("workers: " + ", ".join(
+            f"{worker} done at {last - start:.0f} s (CPU {spent:.1f} s)"
+            for worker, (_, last, spent) in workers.items())
+            + f"; idle tail {end - min(last for _, last, _ in workers.values()):.0f} s")

@@ -1,5 +1,6 @@
-"""The per-tier seconds of the terminal summary (tests/conftest.py ``tier_seconds``,
-``tier_cpu_seconds``)."""
+"""The seconds of the terminal summary (tests/conftest.py): per tier (``tier_seconds``,
+``tier_cpu_seconds``), per module (``module_seconds``) and per worker
+(``worker_seconds``)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,14 @@ from xml.etree import ElementTree
 
 import pytest
 
-from tests.conftest import CPU_KEY, cpu_seconds, tier_cpu_seconds, tier_seconds
+from tests.conftest import (
+    CPU_KEY,
+    cpu_seconds,
+    module_seconds,
+    tier_cpu_seconds,
+    tier_seconds,
+    worker_seconds,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -50,6 +58,36 @@ def test_cpu_seconds_summed_per_tier() -> None:
     assert tier_cpu_seconds([]) == {"fast": 0.0, "slow": 0.0}
 
 
+def test_modules_summed_and_the_most_cpu_first() -> None:
+    reports = [report("tests/a.py::x", "setup", 5.0, False, cpu=4.0),
+               report("tests/a.py::x", "call", 1.0, False, cpu=1.0),
+               report("tests/a.py::y[1]", "call", 2.0, True, cpu=1.5),
+               report("tests/b.py::z", "call", 3.0, False, cpu=9.0),
+               report("tests/c.py::w", "call", 0.5, False),  # no CPU recorded: 0
+               SimpleNamespace(nodeid="tests/d.py"), "a warning"]
+    assert module_seconds(reports) == [
+        ("tests/b.py", 1, pytest.approx(3.0), pytest.approx(9.0)),
+        ("tests/a.py", 2, pytest.approx(8.0), pytest.approx(6.5)),
+        ("tests/c.py", 1, pytest.approx(0.5), 0.0)]
+    assert module_seconds([]) == []
+
+
+def test_workers_span_from_first_start_to_last_stop() -> None:
+    def on(worker: str | None, start: float, stop: float, cpu: float) -> SimpleNamespace:
+        phase = report("tests/a.py::x", "call", stop - start, False, cpu=cpu)
+        phase.start, phase.stop = start, stop
+        if worker is not None:  # pytest-xdist's controller sets the worker's node
+            phase.node = SimpleNamespace(gateway=SimpleNamespace(id=worker))
+        return phase
+
+    reports = [on("gw1", 100.0, 130.0, 20.0), on("gw0", 101.0, 102.0, 1.0),
+               on("gw0", 102.0, 190.0, 80.0), on("gw1", 130.0, 170.0, 35.0)]
+    assert worker_seconds(reports) == {"gw0": (101.0, 190.0, pytest.approx(81.0)),
+                                       "gw1": (100.0, 170.0, pytest.approx(55.0))}
+    assert worker_seconds([on(None, 5.0, 6.0, 0.5)]) == {"master": (5.0, 6.0, 0.5)}
+    assert worker_seconds([]) == {}
+
+
 def test_cpu_seconds_count_a_waited_subprocess() -> None:
     """A subprocess's CPU counts once it is waited for (the sweep's, the examples')."""
     before = cpu_seconds()
@@ -76,3 +114,6 @@ def test_each_phase_report_carries_its_cpu_seconds(tmp_path: Path) -> None:
     summary = re.search(r"fast: 1 tests, [0-9.]+ s \(CPU ([0-9.]+) s\)", done.stdout)
     assert summary is not None, done.stdout
     assert float(summary.group(1)) > 0.05  # the loop: some 0.2-0.5 s of a core
+    module = re.search(r"test_busy.py: 1 tests, [0-9.]+ s \(CPU ([0-9.]+) s\)", done.stdout)
+    assert module is not None, done.stdout
+    assert module.group(1) == summary.group(1)  # one module: the tier's seconds

@@ -21,13 +21,20 @@ compiles): ``gjk_interval``, called by
 (about 4 s of a core to compile: 7.0 s of CPU for that test on a cold cache, 3.1 s
 on a warm one).
 
+Last, the test modules are collected once (``write_test_bytecode``: ``pytest
+--collect-only`` in a subprocess), which writes their assertion-rewritten bytecode into
+``__pycache__``: the two pytest workers then read it instead of each rewriting every
+test module's asserts while collecting (docs/testing.md, "Bytecode").
+
 Usage: ``python -m tests.warm_kernels`` (prints the seconds it took).
 """
 
 from __future__ import annotations
 
+import subprocess
 import sys
 import time
+from pathlib import Path
 
 from cam.run.warm import main
 
@@ -42,7 +49,20 @@ def warm_test_kernels() -> float:
     return time.monotonic() - start
 
 
+def write_test_bytecode() -> float:
+    """Collect the test suite once in a subprocess (``pytest --collect-only``), which
+    writes the assertion-rewritten bytecode of every test module and the compiled
+    bytecode of what they import (module docstring; nothing is written when the
+    environment sets ``PYTHONDONTWRITEBYTECODE``); returns the seconds it took."""
+    start = time.monotonic()
+    subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q",
+                    "-p", "no:cacheprovider"], cwd=Path(__file__).resolve().parents[1],
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False)
+    return time.monotonic() - start
+
+
 if __name__ == "__main__":
     code = main([])
     print(f"test-only kernels warmed in {warm_test_kernels():.0f} s", file=sys.stderr)
+    print(f"test bytecode written in {write_test_bytecode():.0f} s", file=sys.stderr)
     sys.exit(code)
