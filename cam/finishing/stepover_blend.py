@@ -24,8 +24,18 @@ system replaces the corner by a **blend** tangent to both passes:
   the main job's blade passes). Without rates (``rate0 = rate1 = None``): the great
   circle at the smoothstep ``3 s^2 - 2 s^3`` (the axis at rest at both ends).
 * **Checks** (as the straight stepover): the rotary joints turn at most
-  ``FEED_LINK_TURN`` over the move, and the whole move is free as a cut with the
-  cutter shrunk by ``FEED_LINK_GOUGE`` (shank and holder ``clearance`` away).
+  ``FEED_LINK_TURN`` over the move, and the whole move is free as a cut: the cutter
+  shrunk by the cutting allowance ``LinkRules.cutter_allowance``
+  (``FinishOptions.cutter_allowance_mm``) against the roles either pass drives and by
+  at most ``LinkRules.undriven_allowance`` against the others, the rule the postures
+  it joins were planned and the cut moves are checked with (``cam.finishing.driven``),
+  shank and holder ``clearance`` away. A stepover is no stricter than its ends (a
+  stricter one fails at its own first posture: with 0.01 mm, 351 of 367 stepovers
+  between nine_blade's swarf_or_point blade pieces did, their flutes 0.01-0.05 mm into
+  the blade mesh) and no looser than the cuts: the continuous check (samples
+  ``step_mm`` apart) sees a chord's dip ``c^2 / (8 R)`` into a convex surface, so a
+  stepover goes no deeper into the design than the allowance, as the cut moves
+  (docs/finishing.md, "One cutting allowance for postures and stepovers").
 
 Where no blend passes, the straight stepover is checked as before; where that fails
 too the passes are linked the usual way (departure, link, approach).
@@ -48,14 +58,12 @@ from postproc.pole import keeps_branch
 if TYPE_CHECKING:
     from cam.finishing.linking import Linker, PassEnds
 
-__all__ = ["BLEND_POINTS", "BLEND_REACHES", "FEED_LINK_GOUGE", "FEED_LINK_TURN",
+__all__ = ["BLEND_POINTS", "BLEND_REACHES", "FEED_LINK_TURN",
            "Stepover", "blend_curve", "feed_stepover"]
 
 Array = NDArray[np.float64]
 #: Largest A or C turn of a stepover at feed between two passes, rad.
 FEED_LINK_TURN = math.radians(10.0)
-#: Cutter shrink of a stepover's check, mm (its chord dips into a convex design).
-FEED_LINK_GOUGE = 0.01
 #: Tangent reaches of the blend tried, in units of the stepover chord (longest first:
 #: the gentlest turn; a U-turn's end radius is ``1.5 h^2 / c``).
 BLEND_REACHES = (1.5, 1.0, 0.5)
@@ -162,8 +170,8 @@ def feed_stepover(linker: Linker, a: PassEnds, b: PassEnds) -> Stepover | None:
     Parameters
     ----------
     linker : Linker
-        Its kinematics, collision scene and rules (``feed_link``, the cutter's
-        allowance) check the move.
+        Its kinematics, collision scene and rules (``feed_link``, the cutting
+        allowance ``cutter_allowance``) check the move.
     a, b : PassEnds
         The pass left and the pass entered.
 
@@ -178,7 +186,8 @@ def feed_stepover(linker: Linker, a: PassEnds, b: PassEnds) -> Stepover | None:
     chord = float(np.linalg.norm(end - start))
     if not 0.0 < chord <= r.feed_link:
         return None
-    allowance = min(r.cutter_allowance, FEED_LINK_GOUGE)
+    driven = (None if a.driven is None or b.driven is None
+              else tuple(dict.fromkeys((*a.driven, *b.driven))))
     leave, enter = _direction(a, True), _direction(b, False)
     candidates: list[tuple[Array, Array, float]] = []
     if leave is not None and enter is not None:
@@ -190,7 +199,7 @@ def feed_stepover(linker: Linker, a: PassEnds, b: PassEnds) -> Stepover | None:
     for tip, axis, reach in candidates:
         tips = np.vstack([start[None], tip])
         axes = np.vstack([a.axis[-1][None], axis])
-        if _turn_ok(linker, a, tips, axes) and linker.feed_free(tips, axes, allowance):
+        if _turn_ok(linker, a, tips, axes) and linker.feed_free(tips, axes, driven=driven):
             return Stepover(tip=np.asarray(tip, dtype=np.float64),
                             axis=np.asarray(axis, dtype=np.float64), reach=reach)
     return None
