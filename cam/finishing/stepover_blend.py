@@ -32,10 +32,26 @@ system replaces the corner by a **blend** tangent to both passes:
   shank and holder ``clearance`` away. A stepover is no stricter than its ends (a
   stricter one fails at its own first posture: with 0.01 mm, 351 of 367 stepovers
   between nine_blade's swarf_or_point blade pieces did, their flutes 0.01-0.05 mm into
-  the blade mesh) and no looser than the cuts: the continuous check (samples
-  ``step_mm`` apart) sees a chord's dip ``c^2 / (8 R)`` into a convex surface, so a
-  stepover goes no deeper into the design than the allowance, as the cut moves
-  (docs/finishing.md, "One cutting allowance for postures and stepovers").
+  the blade mesh).
+* **The ball's dip into the hub, exactly** (``hub_dip``): the cut postures are
+  planned tangent to the closed-form surfaces, a stepover's chord is not: over a
+  convex surface of radius R it dips about ``c^2 / (8 R)`` between its ends. Checked only
+  against the scene mesh, a stepover may go ``cutter_allowance`` into the mesh and
+  the mesh lies up to its tessellation (``tessellation_mm``) inside a convex face:
+  0.05 + 0.02 mm into the part, past the verifier's gouge tolerance
+  (``Tolerances.gouge``, 0.05 mm; the small chain's blended hub stepovers were
+  verified 0.050-0.059 mm deep). Against the hub, a surface of revolution whose
+  distance is exact in the meridional plane (``RevolvedSurface.closest_s``), the
+  ball centre of the move sampled ``HUB_SAMPLE_MM`` apart must keep
+  ``r - hub_dip_limit(r)`` from it, with ``hub_dip_limit = gouge - chordal -
+  sweep - HUB_SAMPLE_MM^2 / (8 r)``: the post keeps the NC tip within the chordal
+  tolerance (``Tolerances.chordal``, 0.01 mm) of the checked move, the verifier
+  sweeps the NC motion within its sweep tolerance (a tenth of its 0.1 mm
+  resolution: 0.01 mm), and between two samples ``h`` apart the centre's distance
+  from a convex surface (offset radius at least ``r``) drops by at most
+  ``h^2 / (8 r)``: 0.05 - 0.01 - 0.01 - 0.0006 = 0.029 mm for a 2 mm ball. The
+  blade sides keep the mesh rule (docs/finishing.md, "One cutting allowance for
+  stepovers, without gouges").
 
 Where no blend passes, the straight stepover is checked as before; where that fails
 too the passes are linked the usual way (departure, link, approach).
@@ -57,9 +73,10 @@ from postproc.pole import keeps_branch
 
 if TYPE_CHECKING:
     from cam.finishing.linking import Linker, PassEnds
+    from geometry.revolved import RevolvedSurface
 
-__all__ = ["BLEND_POINTS", "BLEND_REACHES", "FEED_LINK_TURN",
-           "Stepover", "blend_curve", "feed_stepover"]
+__all__ = ["BLEND_POINTS", "BLEND_REACHES", "FEED_LINK_TURN", "HUB_SAMPLE_MM",
+           "Stepover", "blend_curve", "feed_stepover", "hub_dip", "hub_dip_limit"]
 
 Array = NDArray[np.float64]
 #: Largest A or C turn of a stepover at feed between two passes, rad.
@@ -69,6 +86,10 @@ FEED_LINK_TURN = math.radians(10.0)
 BLEND_REACHES = (1.5, 1.0, 0.5)
 #: Moves a blend is made of (a U-turn: about 15 degrees of turn each).
 BLEND_POINTS = 12
+#: Spacing of the ball-centre samples of a stepover's exact check against the hub, mm.
+HUB_SAMPLE_MM = 0.1
+#: The verifier's sweep tolerance at its default 0.1 mm resolution (a tenth of it), mm.
+VERIFY_SWEEP_MM = 0.1 * DEFAULT_TOLERANCES.simulation_resolution
 
 
 @dataclass(frozen=True)
@@ -149,6 +170,64 @@ def blend_curve(start: Array, leave: Array, end: Array, enter: Array, axis0: Arr
     return np.asarray(tip), np.asarray(axis)
 
 
+def hub_dip_limit(radius: float) -> float:
+    """Deepest a stepover's ball may reach into the closed-form hub, mm (module doc).
+
+    ``gouge - chordal - sweep - HUB_SAMPLE_MM**2 / (8 radius)``: the verifier's gouge
+    tolerance less the post's chordal tolerance, the verifier's sweep tolerance and
+    what the ball centre can approach a convex surface between two samples.
+
+    Parameters
+    ----------
+    radius : float
+        Ball radius, mm (> 0).
+    """
+    t = DEFAULT_TOLERANCES
+    return t.gouge - t.chordal - VERIFY_SWEEP_MM - HUB_SAMPLE_MM ** 2 / (8.0 * radius)
+
+
+def hub_dip(hub: RevolvedSurface, tip: Array, axis: Array, radius: float,
+            step_rad: float) -> float:
+    """Deepest the ball reaches into the closed-form hub over a move, mm.
+
+    The move goes through the postures tip-linearly with the axis on the great circle
+    (as ``check_motion`` checks it), sampled ``HUB_SAMPLE_MM`` and ``step_rad`` apart.
+    Only samples whose ball centre has its foot inside the hub contour count (its
+    distance is then exact); beyond the inlet and the rim the part's other faces are
+    the mesh check's.
+
+    Parameters
+    ----------
+    hub : RevolvedSurface
+        The hub (normal towards the passage).
+    tip, axis : (n, 3) float64
+        Postures, n >= 2 (mm; unit axes).
+    radius : float
+        Ball radius, mm: its centre is ``tip + radius * axis``.
+    step_rad : float
+        Largest axis turn between samples, rad.
+
+    Returns
+    -------
+    float
+        ``radius`` less the smallest distance of a counted centre from the hub, mm
+        (negative: clear by that much; ``-inf``: no sample counted).
+    """
+    from cam.collision.postures import subdivide_motion
+
+    sub_tip, sub_axis, _ = subdivide_motion(tip, axis, HUB_SAMPLE_MM, step_rad)
+    centre = sub_tip + radius * sub_axis
+    z, r = centre[:, 2], np.hypot(centre[:, 0], centre[:, 1])
+    s = hub.closest_s(z, r)
+    inside = (s > 0.0) & (s < 1.0)
+    if not inside.any():
+        return -math.inf
+    foot, normal = hub.meridian(s[inside]), hub.meridian_normal(s[inside])
+    distance = ((z[inside] - foot[:, 0]) * normal[:, 0]
+                + (r[inside] - foot[:, 1]) * normal[:, 1])
+    return float(radius - distance.min())
+
+
 def _turn_ok(linker: Linker, a: PassEnds, tips: Array, axes: Array) -> bool:
     """The rotary joints stay within ``FEED_LINK_TURN`` of ``a``'s last over the move
     (and inside the machine's travel: a blend whose axis swings past a rotary limit is
@@ -199,7 +278,8 @@ def feed_stepover(linker: Linker, a: PassEnds, b: PassEnds) -> Stepover | None:
     for tip, axis, reach in candidates:
         tips = np.vstack([start[None], tip])
         axes = np.vstack([a.axis[-1][None], axis])
-        if _turn_ok(linker, a, tips, axes) and linker.feed_free(tips, axes, driven=driven):
+        if (_turn_ok(linker, a, tips, axes) and linker.hub_clear(tips, axes)
+                and linker.feed_free(tips, axes, driven=driven)):
             return Stepover(tip=np.asarray(tip, dtype=np.float64),
                             axis=np.asarray(axis, dtype=np.float64), reach=reach)
     return None

@@ -20,8 +20,15 @@ import trimesh
 from cam.collision import CollisionScene
 from cam.finishing.lead_blend import LEAD_POINTS
 from cam.finishing.linking import Envelope, Linker, LinkRules, PassEnds
-from cam.finishing.stepover_blend import BLEND_POINTS, BLEND_REACHES
+from cam.finishing.stepover_blend import (
+    BLEND_POINTS,
+    BLEND_REACHES,
+    HUB_SAMPLE_MM,
+    hub_dip,
+    hub_dip_limit,
+)
 from cam.tools import resolve_tool
+from geometry.revolved import RevolvedSurface
 from postproc.apt import format_apt, parse_apt
 from postproc.kinematics import kinematics_for
 from postproc.machine import load_machine
@@ -267,3 +274,62 @@ def test_a_stepover_chord_may_dip_into_a_convex_surface_as_deep_as_the_cuts(
     limit = rules.cutter_allowance if driven is None or "blade" in driven else 0.02
     assert (dip < limit) == feed
     assert (linker.feed_link(first, second) is not None) is feed
+
+
+def _sphere_hub(radius: float) -> RevolvedSurface:
+    """A hub that is a sphere about the origin (contour from near the pole outwards)."""
+    theta = np.linspace(0.05, 1.2, 200)
+    return RevolvedSurface(np.column_stack([radius * np.cos(theta), radius * np.sin(theta)]), 1)
+
+
+@pytest.mark.parametrize("chord", [0.5, 2.0, 3.0])
+def test_hub_dip_of_a_straight_stepover_over_a_spherical_hub_is_the_sagitta(
+        chord: float) -> None:
+    """Tips on the sphere (R 30 mm), the axis along its normal: the move's tip is
+    straight and its axis on the great circle, so the ball centre at the middle lies
+    ``R cos(alpha) + r`` from the sphere's centre (alpha half the angle between the
+    ends): the ball dips ``R - sqrt(R**2 - c**2 / 4)`` into the hub, the tip chord's
+    sagitta; samples 0.1 mm apart see it within ``0.1**2 / (8 r)``."""
+    big, ball = 30.0, 2.0
+    hub = _sphere_hub(big)
+    half = 0.5 * chord / big / math.sin(0.4)
+    normals = np.array([[math.sin(0.4) * math.cos(p), math.sin(0.4) * math.sin(p),
+                         math.cos(0.4)] for p in (-half, half)])
+    true_chord = float(np.linalg.norm(big * (normals[1] - normals[0])))
+    expected = big - math.sqrt(big ** 2 - true_chord ** 2 / 4.0)
+    found = hub_dip(hub, big * normals, normals, ball, math.radians(0.5))
+    assert expected - HUB_SAMPLE_MM ** 2 / (8.0 * ball) - 1e-6 <= found <= expected + 1e-6
+    # a move off the contour (beyond its outer end) is not counted
+    far = np.array([[0.0, 0.0, -1.0]] * 2)
+    assert hub_dip(hub, np.array([[0.0, 0.0, -40.0], [0.0, 1.0, -40.0]]), far, ball,
+                   math.radians(0.5)) == -math.inf
+
+
+@pytest.mark.parametrize(("chord", "exact", "feed"), [
+    (2.0, True, True), (3.0, True, False), (3.0, False, True)])
+def test_a_stepover_over_the_hub_dips_no_deeper_than_the_exact_limit(
+        chord: float, exact: bool, feed: bool) -> None:
+    """Two one-posture passes on a spherical hub (R 30 mm, fine mesh), tool along the
+    normal, a straight stepover between them: the mesh check at the cutting allowance
+    (0.05 mm) lets a 3 mm chord through (the tip's chord dips 0.0375 mm), the exact
+    check of the ball against the closed-form hub does not (it dips as deep, over
+    ``hub_dip_limit(2)`` = 0.029 mm); 2 mm (0.017 mm) passes both."""
+    big = 30.0
+    hub = _sphere_hub(big)
+    body = trimesh.creation.icosphere(subdivisions=6, radius=big)
+    # at colatitude 1 rad about the y axis (A -57 deg, as _passes): C turns 4.5 and
+    # 6.8 deg over the 2 and 3 mm stepovers (within FEED_LINK_TURN)
+    half = 0.5 * chord / big / math.sin(1.0)
+    passes = []
+    for k, p in enumerate((-half, half)):
+        n = np.array([math.sin(1.0) * math.cos(0.5 * math.pi + p),
+                      math.sin(1.0) * math.sin(0.5 * math.pi + p), math.cos(1.0)])
+        q = KINS.inverse((big * n)[None], n[None])
+        passes.append(PassEnds(f"pass {k}", (big * n)[None], n[None], n, n, q[0], q[-1],
+                               driven=("hub",)))
+    linker = _linker(CollisionScene({"hub": body}))
+    rules = replace(linker.rules, feed_link=5.0, undriven_allowance=0.02,
+                    hub=hub if exact else None)
+    linker = Linker(linker.scene, KINS, rules)
+    assert 0.0 < hub_dip_limit(TOOL.corner_radius) < 0.05
+    assert (linker.feed_link(passes[0], passes[1]) is not None) is feed
