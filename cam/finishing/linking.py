@@ -46,7 +46,7 @@ from numpy.typing import NDArray
 from cam.finishing.axial_moves import AxialMove, axial_moves
 from cam.finishing.envelope import Envelope, retract_length, stepped_link
 from cam.finishing.lead_blend import Lead, tangent_leads
-from cam.finishing.stepover_blend import Stepover, feed_stepover, hub_dip, hub_dip_limit
+from cam.finishing.stepover_blend import Stepover, feed_stepover
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
 from postproc.kinematics.base import OverTravelError
 from postproc.pole import keeps_branch
@@ -234,15 +234,6 @@ class Linker:
             cutter_allowance=r.cutter_allowance if allowance is None else allowance,
             clearance_cap=r.clearance)
         return not bool(report.blocked(r.clearance).any())
-
-    def hub_clear(self, tip: Array, axis: Array) -> bool:
-        """Whether a feed move's ball stays within ``hub_dip_limit`` of the closed-form
-        hub (``rules.hub``; True without one or for a tool without a ball)."""
-        r = self.rules
-        radius = float(r.tool.corner_radius)
-        if r.hub is None or not radius > 0.0:
-            return True
-        return hub_dip(r.hub, tip, axis, radius, r.step_rad) <= hub_dip_limit(radius)
 
     def _reachable(self, tip: Array, axis: Array) -> bool:
         """Whether the machine reaches posture ``(tip, axis)`` inside its travel."""

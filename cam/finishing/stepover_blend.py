@@ -228,6 +228,16 @@ def hub_dip(hub: RevolvedSurface, tip: Array, axis: Array, radius: float,
     return float(radius - distance.min())
 
 
+def _hub_clear(linker: Linker, tip: Array, axis: Array) -> bool:
+    """Whether a move's ball stays within ``hub_dip_limit`` of the closed-form hub
+    (``LinkRules.hub``; True without one or for a tool without a ball)."""
+    r = linker.rules
+    radius = float(r.tool.corner_radius)
+    if r.hub is None or not radius > 0.0:
+        return True
+    return hub_dip(r.hub, tip, axis, radius, r.step_rad) <= hub_dip_limit(radius)
+
+
 def _turn_ok(linker: Linker, a: PassEnds, tips: Array, axes: Array) -> bool:
     """The rotary joints stay within ``FEED_LINK_TURN`` of ``a``'s last over the move
     (and inside the machine's travel: a blend whose axis swings past a rotary limit is
@@ -278,7 +288,7 @@ def feed_stepover(linker: Linker, a: PassEnds, b: PassEnds) -> Stepover | None:
     for tip, axis, reach in candidates:
         tips = np.vstack([start[None], tip])
         axes = np.vstack([a.axis[-1][None], axis])
-        if (_turn_ok(linker, a, tips, axes) and linker.hub_clear(tips, axes)
+        if (_turn_ok(linker, a, tips, axes) and _hub_clear(linker, tips, axes)
                 and linker.feed_free(tips, axes, driven=driven)):
             return Stepover(tip=np.asarray(tip, dtype=np.float64),
                             axis=np.asarray(axis, dtype=np.float64), reach=reach)
