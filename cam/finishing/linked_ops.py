@@ -77,7 +77,8 @@ def finish_toolpaths(result: FinishResult, surfaces: ImpellerSurfaces,
         step_rad=math.radians(options.motion_step_deg),
         envelope=_envelope(surfaces, options.retract_clearance_mm),
         longest=tool.length + 500.0, turn_step=math.radians(options.link_step_deg),
-        feed_link=options.feed_link_mm)
+        feed_link=options.feed_link_mm, undriven_allowance=options.undriven_allowance_mm,
+        hub=surfaces.hub)
     linker = Linker(scene, kins, rules)
     out = {}
     for op, members in result.operations().items():

@@ -55,6 +55,7 @@ from postproc.toolpath import Cutter, MoveKind, Toolpath
 if TYPE_CHECKING:
     from cam.collision import CollisionScene
     from cam.tools import Tool
+    from geometry.revolved import RevolvedSurface
     from postproc.kinematics import Kinematics
 
 __all__ = ["DEPARTURE_SCALES", "Envelope", "LinkRules", "Linker", "PassEnds", "retract_length"]
@@ -83,7 +84,8 @@ class LinkRules:
         Rapids keep the cutter (grown by it) and shank and holder this far from the
         part, mm; feed moves keep shank and holder this far (as the cuts do).
     cutter_allowance : float
-        Departures and approaches check the cutter shrunk by this much (as cuts), mm.
+        Departures, approaches and stepovers check the cutter shrunk by this much
+        (as the cuts; ``FinishOptions.cutter_allowance_mm``), mm.
     step_mm, step_rad : float
         Subdivision of the continuous collision checks.
     envelope : Envelope
@@ -96,6 +98,14 @@ class LinkRules:
         Passes whose ends are at most this far apart are joined at feed (a zig-zag
         stepover, blended tangent to both passes where it is clear: ``stepover_blend``;
         checked as a cut), mm; 0: never.
+    undriven_allowance : float or None
+        Stepovers check the cutter shrunk by at most this much against the roles
+        neither pass drives (``PassEnds.driven``), as the postures are
+        (``cam.finishing.driven``), mm; None: every role at ``cutter_allowance``.
+    hub : RevolvedSurface or None
+        The closed-form hub: a stepover's ball may dip into it no deeper than
+        ``stepover_blend.hub_dip_limit`` (``stepover_blend.hub_dip``); None: the mesh
+        check only.
     """
 
     tool: Tool
@@ -109,6 +119,8 @@ class LinkRules:
     longest: float
     turn_step: float
     feed_link: float = 0.0
+    undriven_allowance: float | None = None
+    hub: RevolvedSurface | None = None
 
 
 @dataclass(frozen=True)
@@ -129,6 +141,9 @@ class PassEnds:
         The pass goes on from the previous one past a turn of the tool axis too fast
         for a cut (``posture.axis_breaks``): it is entered from the air, never by a
         feed link.
+    driven : tuple of str or None
+        Scene roles the pass's ball is meant to touch (``driven.driven_roles``); None:
+        not known (a stepover into or out of it checks every role alike).
     """
 
     name: str
@@ -139,6 +154,7 @@ class PassEnds:
     joints_start: Array
     joints_end: Array
     from_air: bool = False
+    driven: tuple[str, ...] | None = None
 
 
 @dataclass
@@ -203,10 +219,17 @@ class Linker:
             cutter_allowance=-r.clearance, clearance_cap=r.clearance)
         return not bool(report.blocked(r.clearance).any())
 
-    def feed_free(self, tip: Array, axis: Array, allowance: float | None = None) -> bool:
-        """A feed move (W-linear, fixed axis) checked as a cut, cutter shrunk by allowance."""
+    def feed_free(self, tip: Array, axis: Array, allowance: float | None = None,
+                  driven: tuple[str, ...] | None = None) -> bool:
+        """A feed move (W-linear, fixed axis) checked as a cut, cutter shrunk by allowance
+        (against the roles not ``driven`` by at most ``rules.undriven_allowance``)."""
         r = self.rules
-        report = self.scene.check_motion(
+        scene: Any = self.scene
+        if driven is not None and r.undriven_allowance is not None:
+            from cam.finishing.driven import DrivenScene
+
+            scene = DrivenScene(scene, driven, r.undriven_allowance)
+        report = scene.check_motion(
             r.tool, tip, axis, max_step_mm=r.step_mm, max_step_deg=math.degrees(r.step_rad),
             cutter_allowance=r.cutter_allowance if allowance is None else allowance,
             clearance_cap=r.clearance)

@@ -25,6 +25,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from cam.finishing.driven import driven_roles
 from cam.finishing.linking import PassEnds
 from cam.finishing.plan import PathResult
 from cam.finishing.posture import axis_pieces
@@ -104,5 +105,5 @@ def _piece_ends(r: PathResult, reverse: bool, from_air: bool) -> list[PassEnds]:
             escape_end=escape_normal(r, int(rows[-1])),
             joints_start=np.asarray(r.joints_after[rows[0]]),
             joints_end=np.asarray(r.joints_after[rows[-1]]),
-            from_air=from_air or k > 0))
+            from_air=from_air or k > 0, driven=driven_roles(r.path)))
     return out

@@ -24,8 +24,34 @@ system replaces the corner by a **blend** tangent to both passes:
   the main job's blade passes). Without rates (``rate0 = rate1 = None``): the great
   circle at the smoothstep ``3 s^2 - 2 s^3`` (the axis at rest at both ends).
 * **Checks** (as the straight stepover): the rotary joints turn at most
-  ``FEED_LINK_TURN`` over the move, and the whole move is free as a cut with the
-  cutter shrunk by ``FEED_LINK_GOUGE`` (shank and holder ``clearance`` away).
+  ``FEED_LINK_TURN`` over the move, and the whole move is free as a cut: the cutter
+  shrunk by the cutting allowance ``LinkRules.cutter_allowance``
+  (``FinishOptions.cutter_allowance_mm``) against the roles either pass drives and by
+  at most ``LinkRules.undriven_allowance`` against the others, the rule the postures
+  it joins were planned and the cut moves are checked with (``cam.finishing.driven``),
+  shank and holder ``clearance`` away. A stepover is no stricter than its ends (a
+  stricter one fails at its own first posture: with 0.01 mm, 351 of 367 stepovers
+  between nine_blade's swarf_or_point blade pieces did, their flutes 0.01-0.05 mm into
+  the blade mesh).
+* **The ball's dip into the hub, exactly** (``hub_dip``): the cut postures are
+  planned tangent to the closed-form surfaces, a stepover's chord is not: over a
+  convex surface of radius R it dips about ``c^2 / (8 R)`` between its ends. Checked only
+  against the scene mesh, a stepover may go ``cutter_allowance`` into the mesh and
+  the mesh lies up to its tessellation (``tessellation_mm``) inside a convex face:
+  0.05 + 0.02 mm into the part, past the verifier's gouge tolerance
+  (``Tolerances.gouge``, 0.05 mm; the small chain's blended hub stepovers were
+  verified 0.050-0.059 mm deep). Against the hub, a surface of revolution whose
+  distance is exact in the meridional plane (``RevolvedSurface.closest_s``), the
+  ball centre of the move sampled ``HUB_SAMPLE_MM`` apart must keep
+  ``r - hub_dip_limit(r)`` from it, with ``hub_dip_limit = gouge - chordal -
+  sweep - HUB_SAMPLE_MM^2 / (8 r)``: the post keeps the NC tip within the chordal
+  tolerance (``Tolerances.chordal``, 0.01 mm) of the checked move, the verifier
+  sweeps the NC motion within its sweep tolerance (a tenth of its 0.1 mm
+  resolution: 0.01 mm), and between two samples ``h`` apart the centre's distance
+  from a convex surface (offset radius at least ``r``) drops by at most
+  ``h^2 / (8 r)``: 0.05 - 0.01 - 0.01 - 0.0006 = 0.029 mm for a 2 mm ball. The
+  blade sides keep the mesh rule (docs/finishing.md, "One cutting allowance for
+  stepovers, without gouges").
 
 Where no blend passes, the straight stepover is checked as before; where that fails
 too the passes are linked the usual way (departure, link, approach).
@@ -47,20 +73,23 @@ from postproc.pole import keeps_branch
 
 if TYPE_CHECKING:
     from cam.finishing.linking import Linker, PassEnds
+    from geometry.revolved import RevolvedSurface
 
-__all__ = ["BLEND_POINTS", "BLEND_REACHES", "FEED_LINK_GOUGE", "FEED_LINK_TURN",
-           "Stepover", "blend_curve", "feed_stepover"]
+__all__ = ["BLEND_POINTS", "BLEND_REACHES", "FEED_LINK_TURN", "HUB_SAMPLE_MM",
+           "Stepover", "blend_curve", "feed_stepover", "hub_dip", "hub_dip_limit"]
 
 Array = NDArray[np.float64]
 #: Largest A or C turn of a stepover at feed between two passes, rad.
 FEED_LINK_TURN = math.radians(10.0)
-#: Cutter shrink of a stepover's check, mm (its chord dips into a convex design).
-FEED_LINK_GOUGE = 0.01
 #: Tangent reaches of the blend tried, in units of the stepover chord (longest first:
 #: the gentlest turn; a U-turn's end radius is ``1.5 h^2 / c``).
 BLEND_REACHES = (1.5, 1.0, 0.5)
 #: Moves a blend is made of (a U-turn: about 15 degrees of turn each).
 BLEND_POINTS = 12
+#: Spacing of the ball-centre samples of a stepover's exact check against the hub, mm.
+HUB_SAMPLE_MM = 0.1
+#: The verifier's sweep tolerance at its default 0.1 mm resolution (a tenth of it), mm.
+VERIFY_SWEEP_MM = 0.1 * DEFAULT_TOLERANCES.simulation_resolution
 
 
 @dataclass(frozen=True)
@@ -141,6 +170,74 @@ def blend_curve(start: Array, leave: Array, end: Array, enter: Array, axis0: Arr
     return np.asarray(tip), np.asarray(axis)
 
 
+def hub_dip_limit(radius: float) -> float:
+    """Deepest a stepover's ball may reach into the closed-form hub, mm (module doc).
+
+    ``gouge - chordal - sweep - HUB_SAMPLE_MM**2 / (8 radius)``: the verifier's gouge
+    tolerance less the post's chordal tolerance, the verifier's sweep tolerance and
+    what the ball centre can approach a convex surface between two samples.
+
+    Parameters
+    ----------
+    radius : float
+        Ball radius, mm (> 0).
+    """
+    t = DEFAULT_TOLERANCES
+    return t.gouge - t.chordal - VERIFY_SWEEP_MM - HUB_SAMPLE_MM ** 2 / (8.0 * radius)
+
+
+def hub_dip(hub: RevolvedSurface, tip: Array, axis: Array, radius: float,
+            step_rad: float) -> float:
+    """Deepest the ball reaches into the closed-form hub over a move, mm.
+
+    The move goes through the postures tip-linearly with the axis on the great circle
+    (as ``check_motion`` checks it), sampled ``HUB_SAMPLE_MM`` and ``step_rad`` apart.
+    Only samples whose ball centre has its foot inside the hub contour count (its
+    distance is then exact); beyond the inlet and the rim the part's other faces are
+    the mesh check's.
+
+    Parameters
+    ----------
+    hub : RevolvedSurface
+        The hub (normal towards the passage).
+    tip, axis : (n, 3) float64
+        Postures, n >= 2 (mm; unit axes).
+    radius : float
+        Ball radius, mm: its centre is ``tip + radius * axis``.
+    step_rad : float
+        Largest axis turn between samples, rad.
+
+    Returns
+    -------
+    float
+        ``radius`` less the smallest distance of a counted centre from the hub, mm
+        (negative: clear by that much; ``-inf``: no sample counted).
+    """
+    from cam.collision.postures import subdivide_motion
+
+    sub_tip, sub_axis, _ = subdivide_motion(tip, axis, HUB_SAMPLE_MM, step_rad)
+    centre = sub_tip + radius * sub_axis
+    z, r = centre[:, 2], np.hypot(centre[:, 0], centre[:, 1])
+    s = hub.closest_s(z, r)
+    inside = (s > 0.0) & (s < 1.0)
+    if not inside.any():
+        return -math.inf
+    foot, normal = hub.meridian(s[inside]), hub.meridian_normal(s[inside])
+    distance = ((z[inside] - foot[:, 0]) * normal[:, 0]
+                + (r[inside] - foot[:, 1]) * normal[:, 1])
+    return float(radius - distance.min())
+
+
+def _hub_clear(linker: Linker, tip: Array, axis: Array) -> bool:
+    """Whether a move's ball stays within ``hub_dip_limit`` of the closed-form hub
+    (``LinkRules.hub``; True without one or for a tool without a ball)."""
+    r = linker.rules
+    radius = float(r.tool.corner_radius)
+    if r.hub is None or not radius > 0.0:
+        return True
+    return hub_dip(r.hub, tip, axis, radius, r.step_rad) <= hub_dip_limit(radius)
+
+
 def _turn_ok(linker: Linker, a: PassEnds, tips: Array, axes: Array) -> bool:
     """The rotary joints stay within ``FEED_LINK_TURN`` of ``a``'s last over the move
     (and inside the machine's travel: a blend whose axis swings past a rotary limit is
@@ -162,8 +259,8 @@ def feed_stepover(linker: Linker, a: PassEnds, b: PassEnds) -> Stepover | None:
     Parameters
     ----------
     linker : Linker
-        Its kinematics, collision scene and rules (``feed_link``, the cutter's
-        allowance) check the move.
+        Its kinematics, collision scene and rules (``feed_link``, the cutting
+        allowance ``cutter_allowance``) check the move.
     a, b : PassEnds
         The pass left and the pass entered.
 
@@ -178,7 +275,8 @@ def feed_stepover(linker: Linker, a: PassEnds, b: PassEnds) -> Stepover | None:
     chord = float(np.linalg.norm(end - start))
     if not 0.0 < chord <= r.feed_link:
         return None
-    allowance = min(r.cutter_allowance, FEED_LINK_GOUGE)
+    driven = (None if a.driven is None or b.driven is None
+              else tuple(dict.fromkeys((*a.driven, *b.driven))))
     leave, enter = _direction(a, True), _direction(b, False)
     candidates: list[tuple[Array, Array, float]] = []
     if leave is not None and enter is not None:
@@ -190,7 +288,8 @@ def feed_stepover(linker: Linker, a: PassEnds, b: PassEnds) -> Stepover | None:
     for tip, axis, reach in candidates:
         tips = np.vstack([start[None], tip])
         axes = np.vstack([a.axis[-1][None], axis])
-        if _turn_ok(linker, a, tips, axes) and linker.feed_free(tips, axes, allowance):
+        if (_turn_ok(linker, a, tips, axes) and _hub_clear(linker, tips, axes)
+                and linker.feed_free(tips, axes, driven=driven)):
             return Stepover(tip=np.asarray(tip, dtype=np.float64),
                             axis=np.asarray(axis, dtype=np.float64), reach=reach)
     return None

@@ -96,7 +96,7 @@ def _flip_pass() -> SimpleNamespace:
     centre = tip + TOOL.radius * axis
     joints = KINS.inverse(tip, axis)
     normal = np.tile([0.0, 0.0, 1.0], (n, 1))
-    path = SimpleNamespace(name="p0.hub.01", passage=0, operation="hub", normal=normal,
+    path = SimpleNamespace(name="p0.hub.01", passage=0, operation="hub", wall=None, normal=normal,
                            away=normal)
     breaks = axis_breaks(centre, axis, math.radians(FinishOptions().max_axis_turn_deg_per_mm))
     return SimpleNamespace(path=path, tip=tip, axis=axis, joints_after=joints, breaks=breaks,
@@ -122,6 +122,7 @@ def test_lean_flip_is_made_in_the_air_and_posts(reverse: bool, tmp_path: Path) -
     passes = ordered_passes(results)  # the second pass of a passage runs backwards
     mine = passes[-2:]
     assert [p.from_air for p in mine] == [False, True]
+    assert all(p.driven == ("hub", "fillet") for p in mine)  # its stepovers' roles
     assert [len(p.tip) for p in mine] == [6, 5] if reverse else [5, 6]
     rules = LinkRules(tool=TOOL, feed=900.0, departure=1.0, clearance=0.5,
                       cutter_allowance=0.05, step_mm=0.5, step_rad=math.radians(0.5),

@@ -20,8 +20,15 @@ import trimesh
 from cam.collision import CollisionScene
 from cam.finishing.lead_blend import LEAD_POINTS
 from cam.finishing.linking import Envelope, Linker, LinkRules, PassEnds
-from cam.finishing.stepover_blend import BLEND_POINTS, BLEND_REACHES
+from cam.finishing.stepover_blend import (
+    BLEND_POINTS,
+    BLEND_REACHES,
+    HUB_SAMPLE_MM,
+    hub_dip,
+    hub_dip_limit,
+)
 from cam.tools import resolve_tool
+from geometry.revolved import RevolvedSurface
 from postproc.apt import format_apt, parse_apt
 from postproc.kinematics import kinematics_for
 from postproc.machine import load_machine
@@ -231,14 +238,17 @@ def test_a_pass_end_whose_holder_collides_is_left_without_gouging_the_overhang()
     np.testing.assert_allclose(found[0], tip + r.departure * up, atol=1e-12)
 
 
-@pytest.mark.parametrize(("step_mm", "feed"), [(1.0, True), (3.0, False)])
-def test_a_stepover_chord_may_not_dip_into_a_convex_surface(step_mm: float,
-                                                            feed: bool) -> None:
+@pytest.mark.parametrize(("step_mm", "driven", "feed"), [
+    (1.0, ("blade",), True), (3.0, ("blade",), True), (4.0, ("blade",), False),
+    (3.0, None, True), (1.0, ("hub",), True), (3.0, ("hub",), False)])
+def test_a_stepover_chord_may_dip_into_a_convex_surface_as_deep_as_the_cuts(
+        step_mm: float, driven: tuple[str, ...] | None, feed: bool) -> None:
     """Two pass ends on a cylinder of radius 30 (axis along x), the tool along the
-    normal: the tip's straight chord between them dips ``c**2 / (8 R)`` into it (1 mm:
-    0.004 mm, within the stepover's 0.01 mm; 3 mm: 0.0375 mm, which the cutting
-    allowance of 0.05 mm would have let through and the verifier at 0.1 mm nearly
-    flags). The short stepover is a feed move, the long one is not."""
+    normal: the tip's chord between them (the blend's too: its control points lie off
+    the ends along x) dips ``c**2 / (8 R)`` into it (1, 3, 4 mm: 0.004, 0.0375,
+    0.067 mm). A stepover is checked as the postures it joins: the cutter shrunk by
+    the cutting allowance (0.05 mm) against a role the passes drive (or every role when
+    they are not known), by the undriven allowance (0.02 mm) against the others."""
     radius = 30.0
     # 20 mm long: the pass ends span x = -5 to 5 (the tool outside the radius, clear of
     # the end caps); a longer body only costs the scene's build time
@@ -253,10 +263,73 @@ def test_a_stepover_chord_may_not_dip_into_a_convex_surface(step_mm: float,
     a_tip, a_axis, a_normal = ends[0]
     b_tip, b_axis, b_normal = ends[1][0][::-1], ends[1][1], ends[1][2]
     qa, qb = KINS.inverse(a_tip, a_axis), KINS.inverse(b_tip, b_axis)
-    first = PassEnds("pass 0", a_tip, a_axis, a_normal, a_normal, qa[0], qa[-1])
-    second = PassEnds("pass 1", b_tip, b_axis, b_normal, b_normal, qb[0], qb[-1])
+    first = PassEnds("pass 0", a_tip, a_axis, a_normal, a_normal, qa[0], qa[-1],
+                     driven=driven)
+    second = PassEnds("pass 1", b_tip, b_axis, b_normal, b_normal, qb[0], qb[-1],
+                      driven=driven)
     linker = _linker(CollisionScene({"blade": body}))
-    linker = Linker(linker.scene, KINS, replace(linker.rules, feed_link=5.0))
+    rules = replace(linker.rules, feed_link=5.0, undriven_allowance=0.02)
+    linker = Linker(linker.scene, KINS, rules)
     dip = step_mm ** 2 / (8.0 * radius)
-    assert (dip < 0.01) == feed and dip < 0.05
+    limit = rules.cutter_allowance if driven is None or "blade" in driven else 0.02
+    assert (dip < limit) == feed
     assert (linker.feed_link(first, second) is not None) is feed
+
+
+def _sphere_hub(radius: float) -> RevolvedSurface:
+    """A hub that is a sphere about the origin (contour from near the pole outwards)."""
+    theta = np.linspace(0.05, 1.2, 200)
+    return RevolvedSurface(np.column_stack([radius * np.cos(theta), radius * np.sin(theta)]), 1)
+
+
+@pytest.mark.parametrize("chord", [0.5, 2.0, 3.0])
+def test_hub_dip_of_a_straight_stepover_over_a_spherical_hub_is_the_sagitta(
+        chord: float) -> None:
+    """Tips on the sphere (R 30 mm), the axis along its normal: the move's tip is
+    straight and its axis on the great circle, so the ball centre at the middle lies
+    ``R cos(alpha) + r`` from the sphere's centre (alpha half the angle between the
+    ends): the ball dips ``R - sqrt(R**2 - c**2 / 4)`` into the hub, the tip chord's
+    sagitta; samples 0.1 mm apart see it within ``0.1**2 / (8 r)``."""
+    big, ball = 30.0, 2.0
+    hub = _sphere_hub(big)
+    half = 0.5 * chord / big / math.sin(0.4)
+    normals = np.array([[math.sin(0.4) * math.cos(p), math.sin(0.4) * math.sin(p),
+                         math.cos(0.4)] for p in (-half, half)])
+    true_chord = float(np.linalg.norm(big * (normals[1] - normals[0])))
+    expected = big - math.sqrt(big ** 2 - true_chord ** 2 / 4.0)
+    found = hub_dip(hub, big * normals, normals, ball, math.radians(0.5))
+    assert expected - HUB_SAMPLE_MM ** 2 / (8.0 * ball) - 1e-6 <= found <= expected + 1e-6
+    # a move off the contour (beyond its outer end) is not counted
+    far = np.array([[0.0, 0.0, -1.0]] * 2)
+    assert hub_dip(hub, np.array([[0.0, 0.0, -40.0], [0.0, 1.0, -40.0]]), far, ball,
+                   math.radians(0.5)) == -math.inf
+
+
+@pytest.mark.parametrize(("chord", "exact", "feed"), [
+    (2.0, True, True), (3.0, True, False), (3.0, False, True)])
+def test_a_stepover_over_the_hub_dips_no_deeper_than_the_exact_limit(
+        chord: float, exact: bool, feed: bool) -> None:
+    """Two one-posture passes on a spherical hub (R 30 mm, fine mesh), tool along the
+    normal, a straight stepover between them: the mesh check at the cutting allowance
+    (0.05 mm) lets a 3 mm chord through (the tip's chord dips 0.0375 mm), the exact
+    check of the ball against the closed-form hub does not (it dips as deep, over
+    ``hub_dip_limit(2)`` = 0.029 mm); 2 mm (0.017 mm) passes both."""
+    big = 30.0
+    hub = _sphere_hub(big)
+    body = trimesh.creation.icosphere(subdivisions=6, radius=big)
+    # at colatitude 1 rad about the y axis (A -57 deg, as _passes): C turns 4.5 and
+    # 6.8 deg over the 2 and 3 mm stepovers (within FEED_LINK_TURN)
+    half = 0.5 * chord / big / math.sin(1.0)
+    passes = []
+    for k, p in enumerate((-half, half)):
+        n = np.array([math.sin(1.0) * math.cos(0.5 * math.pi + p),
+                      math.sin(1.0) * math.sin(0.5 * math.pi + p), math.cos(1.0)])
+        q = KINS.inverse((big * n)[None], n[None])
+        passes.append(PassEnds(f"pass {k}", (big * n)[None], n[None], n, n, q[0], q[-1],
+                               driven=("hub",)))
+    linker = _linker(CollisionScene({"hub": body}))
+    rules = replace(linker.rules, feed_link=5.0, undriven_allowance=0.02,
+                    hub=hub if exact else None)
+    linker = Linker(linker.scene, KINS, rules)
+    assert 0.0 < hub_dip_limit(TOOL.corner_radius) < 0.05
+    assert (linker.feed_link(passes[0], passes[1]) is not None) is feed
