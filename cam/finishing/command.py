@@ -162,8 +162,8 @@ def _machine_entry(obstacle: MachineObstacle, result: FinishResult,
         blocked = None if made is None else made.blocked(path)
         if blocked is None:
             tool = tools.get(path.path.operation, result.tool)
-            margin = obstacle.posture_margin(tool, path.tip, path.axis)
-            blocked = np.flatnonzero(margin < obstacle.margin).tolist()
+            blocked = np.flatnonzero(obstacle.posture_blocked(tool, path.tip,
+                                                              path.axis)).tolist()
             if made is not None:
                 made.margins[path.path.name] = (path, blocked)
         entry["machine_blocked_points"] = blocked

@@ -105,11 +105,22 @@ class Linker:
         self.scene = scene
         self.kins = kins
         self.rules = rules
+        #: ``rapid_free``'s answers by the joints' bytes: ``join`` builds the operation
+        #: again after raising a link, and links it keeps are asked again (same scene,
+        #: rules and joints: the same answer)
+        self._rapids: dict[bytes, bool] = {}
 
     # -- checks ---------------------------------------------------------------------
 
     def rapid_free(self, joints: Array) -> bool:
         """Joint-space straight moves through ``joints`` (k, 5) keep the rapid clearance."""
+        key = np.ascontiguousarray(joints, dtype=np.float64).tobytes()
+        known = self._rapids.get(key)
+        if known is None:
+            known = self._rapids[key] = self._rapid_free(joints)
+        return known
+
+    def _rapid_free(self, joints: Array) -> bool:
         r = self.rules
         samples = [joints[:1]]
         for q0, q1 in zip(joints[:-1], joints[1:], strict=True):

@@ -83,6 +83,9 @@ class MachineObstacle(SceneWrapper, CollisionScene):
         self.margin = 0.5 * model.step if margin is None else float(margin)
         self.queries: dict[str, MachineClearance] = {}
         self.every: dict[str, MachineClearance] = {}
+        #: ``posture_blocked``'s answers by tool name and the postures' bytes (the
+        #: planner's last check of a path's postures is asked again for finish.json)
+        self._blocked: dict[tuple[str, bytes, bytes], NDArray[np.bool_]] = {}
 
     def query(self, tool: Tool) -> MachineClearance:
         """The clearance query of ``tool`` (cached per tool name)."""
@@ -117,6 +120,23 @@ class MachineObstacle(SceneWrapper, CollisionScene):
         margin, _ = self.query(tool).postures_margin(
             np.asarray(tip, np.float64), np.asarray(axis, np.float64), cap=self.margin)
         return margin
+
+    def posture_blocked(self, tool: Tool, tip: ArrayLike, axis: ArrayLike
+                        ) -> NDArray[np.bool_]:
+        """Postures where a machine pair comes within its clearance plus ``margin``
+        (``posture_margin < margin``), ``(n,)`` bool.
+
+        The same postures asked again (the same tool, bit for bit the same tips and
+        axes) get the answer already found: the margins below ``margin`` are exact, so
+        the comparison is the same whichever bounds decided the rest.
+        """
+        tip = np.ascontiguousarray(tip, dtype=np.float64).reshape(-1, 3)
+        axis = np.ascontiguousarray(axis, dtype=np.float64).reshape(-1, 3)
+        key = (tool.name, tip.tobytes(), axis.tobytes())
+        found = self._blocked.get(key)
+        if found is None:
+            found = self._blocked[key] = self.posture_margin(tool, tip, axis) < self.margin
+        return found.copy()
 
     def motion_margin(self, tool: Tool, tip: ArrayLike, axis: ArrayLike) -> Array:
         """Smallest margin per motion segment ``i -> i + 1`` (joint-linear samples, both
@@ -167,7 +187,7 @@ class MachineObstacle(SceneWrapper, CollisionScene):
             tool, tip, axis, parts=parts, cutter_allowance=cutter_allowance,
             cutter_roles=cutter_roles, clearance=clearance, clearance_cap=clearance_cap,
             clearance_limits=clearance_limits)
-        return self._combine(report, self.posture_margin(tool, tip, axis) < self.margin)
+        return self._combine(report, self.posture_blocked(tool, tip, axis))
 
     def check_motion(self, tool: Tool, tip: ArrayLike, axis: ArrayLike, *,
                      max_step_mm: float, max_step_deg: float,

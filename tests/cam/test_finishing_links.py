@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -333,3 +334,37 @@ def test_a_stepover_over_the_hub_dips_no_deeper_than_the_exact_limit(
     linker = Linker(linker.scene, KINS, rules)
     assert 0.0 < hub_dip_limit(TOOL.corner_radius) < 0.05
     assert (linker.feed_link(passes[0], passes[1]) is not None) is feed
+
+
+class _Counted(CollisionScene):
+    """A scene that counts its motion checks."""
+
+    def __init__(self, meshes: dict[str, trimesh.Trimesh]) -> None:
+        super().__init__(meshes)
+        self.motions = 0
+
+    def check_motion(self, *args: Any, **kwargs: Any) -> Any:
+        self.motions += 1
+        return super().check_motion(*args, **kwargs)
+
+
+def test_a_rapid_asked_again_is_answered_as_before_without_a_check() -> None:
+    """``join`` builds an operation again after raising a link and asks the links it
+    keeps again: the same joints get the same answer, from the first check."""
+    ring = trimesh.creation.annulus(r_min=38.0, r_max=42.0, height=200.0)
+    ring.apply_translation([0.0, 0.0, 100.0 + 40.0])
+    hub = trimesh.creation.cylinder(radius=20.0, height=30.0)
+    hub.apply_translation([0.0, 0.0, 15.0])
+    passes = _passes()
+    turn = np.stack([passes[0].joints_end, passes[1].joints_start])
+    climb = np.stack([passes[0].joints_end,
+                      passes[0].joints_end + np.array([0.0, 0.0, 10.0, 0.0, 0.0])])
+    for meshes, expected in (({"hub": hub}, True), ({"hub": hub, "shroud": ring}, False)):
+        scene = _Counted(meshes)
+        linker = _linker(scene)
+        assert linker.rapid_free(turn) is expected
+        assert scene.motions == 1
+        assert linker.rapid_free(turn.copy()) is expected  # asked again: no check
+        assert scene.motions == 1
+        assert linker.rapid_free(climb) is _linker(scene)._rapid_free(climb)
+        assert scene.motions == 3  # other joints: checked (and the fresh linker's check)

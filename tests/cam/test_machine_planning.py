@@ -235,3 +235,34 @@ def test_a_plain_rotary_rapid_is_checked_as_the_post_moves_it(
     nc.write_text(get_post("linuxcnc").write(post_toolpaths([path], machine, options), options))
     verified = check_program(trunnion["scene"], kins, read_nc(nc, machine=machine), "fillet.ngc")
     assert verified.smallest == pytest.approx(guarded["machine_clearance_mm"], abs=0.05)
+
+
+def test_postures_asked_again_get_the_same_blocked_answer(trunnion: dict[str, Any]) -> None:
+    """``posture_blocked`` is ``posture_margin < margin`` on the postures asked, asked
+    first in a batch of other postures or alone, reversed or not; the same postures
+    asked again are answered without a machine query (the planner's final check of a
+    path is asked again for finish.json)."""
+    kins, machine = trunnion["kins"], trunnion["machine"]
+    rng = np.random.default_rng(19)
+    near = _joints(CLOSE)
+    rows = np.vstack([near, np.column_stack([
+        near[:, :3] + rng.uniform(-20, 20, (len(near), 3)), near[:, 3:] * 0.5])])
+    tip, axis = kins.forward(rows)
+    obstacle = MachineObstacle(_far_scene(), machine.model, kins, trunnion["part"])
+    fresh = MachineObstacle(_far_scene(), machine.model, kins, trunnion["part"])
+    blocked = obstacle.posture_blocked(SHORT_TOOL, tip, axis)
+    assert blocked[:len(near)].all()  # the head within its clearance of the table
+    expected = fresh.posture_margin(SHORT_TOOL, tip, axis) < fresh.margin
+    np.testing.assert_array_equal(blocked, expected)
+    reverse = fresh.posture_blocked(SHORT_TOOL, tip[::-1], axis[::-1])
+    np.testing.assert_array_equal(reverse[::-1], expected)
+    asked = obstacle.stats["poses"]
+    again = obstacle.posture_blocked(SHORT_TOOL, tip.copy(), axis.copy())
+    np.testing.assert_array_equal(again, expected)
+    assert obstacle.stats["poses"] == asked  # answered from the first call
+    again[:] = False  # the caller's copy: the answer kept is not changed
+    np.testing.assert_array_equal(obstacle.posture_blocked(SHORT_TOOL, tip, axis), expected)
+    moved = tip.copy()
+    moved[0, 2] += 1e-9  # another posture: asked anew
+    obstacle.posture_blocked(SHORT_TOOL, moved, axis)
+    assert obstacle.stats["poses"] > asked
