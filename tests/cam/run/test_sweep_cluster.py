@@ -5,19 +5,10 @@ but the tasks: the variants' designs, the machine file's text; the client writes
 OUT/. Two variants of the small fixture (blade thickness 1.3 and 1.5 mm, each with a
 fillet radius of 1.0 mm: two ``--vary`` columns) through geometry and roughing (one
 passage roughed, coarse tessellation: the sweep's machinery is under test, not the
-roughing) give the same sweep.csv as a local run, even with one worker killed
+roughing) give the same sweep.csv as a local run, also when one worker is killed
 mid-sweep (the scheduler reruns its task on the other). One variant per worker is
-enough: each worker starts a task, and the killed one's is rerun on the other (the
-cross product of several values per ``--vary`` is tests/cam/run/test_sweep.py's).
-
-The cluster sweeps once (``cluster_sweep``, one worker killed mid-task) and both
-cluster tests read that run: its table is the local one (every row from a cluster
-worker, none from the client, nothing written into the workers' folders), and no row
-is missing although a worker died. A second sweep without a kill, checking the same
-table, ran the same two tasks through the same remote path as the survivor's own task
-does: it is dropped (two of the module's seven variant runs, geometry and one passage
-roughed each; docs/testing.md). Rows from two processes at once under the
-distributed scheduler are the local sweep's case (``--workers 2``).
+enough for both: each worker runs a task, and the killed one's is rerun on the other
+(the cross product of several values per ``--vary`` is tests/cam/run/test_sweep.py's).
 """
 
 from __future__ import annotations
@@ -31,7 +22,6 @@ import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import pytest
 
@@ -122,8 +112,8 @@ class Cluster:
 
 @pytest.fixture(scope="module")
 def cluster(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Cluster]:
-    """One cluster for the module's cluster sweep (its start and the workers' imports
-    are a good part of a test)."""
+    """One cluster for the module's two cluster tests (its start and the workers'
+    imports are a good part of a test): the killed worker's test comes last."""
     running = Cluster(tmp_path_factory.mktemp("cluster"), workers=2)
     try:
         yield running
@@ -174,56 +164,45 @@ def test_local_sweep_rows(local_sweep: Path) -> None:
     assert float(by["1.3", "1.0"]["volume_mm3"]) < float(by["1.5", "1.0"]["volume_mm3"])
 
 
-@pytest.fixture(scope="module")
-def cluster_sweep(cluster: Cluster, tmp_path_factory: pytest.TempPathFactory
-                  ) -> dict[str, Any]:
-    """The sweep on ``cluster`` with the worker that runs a variant first killed 5 s
-    into its task: ``out`` (the sweep's folder), ``codes`` (the sweep's exit code, in
-    a list), ``killed`` (the killed worker's process, None if no task was seen) and
-    ``pids`` (the workers' process ids before the kill)."""
+def test_cluster_sweep_equals_local(cluster: Cluster, local_sweep: Path, tmp_path: Path
+                                    ) -> None:
+    out = tmp_path / "out"
+    design = base_design(tmp_path / "design")
+    assert sweep(design, out, "--scheduler", cluster.address) == 0
+    assert_same_table(out, local_sweep)
+    summary = json.loads((out / "sweep.json").read_text())
+    pids = {str(p.pid) for p in cluster.workers}
+    workers = {v["worker"].rsplit(":", 1)[1] for v in summary["variants"]}
+    assert workers <= pids and str(os.getpid()) not in workers
+    for i in range(2):  # the workers wrote nothing into their working folders
+        assert sorted(p.name for p in (cluster.root / f"worker{i}").iterdir()) == \
+            ["log.txt", "scratch"]
+
+
+def test_killed_worker_still_gives_every_row(cluster: Cluster, local_sweep: Path,
+                                            tmp_path: Path) -> None:
     from dask.distributed import Client
 
-    root = tmp_path_factory.mktemp("cluster_sweep")
-    out = root / "out"
-    design = base_design(root / "design")
+    out = tmp_path / "out"
+    design = base_design(tmp_path / "design")
     codes: list[int] = []
     thread = threading.Thread(target=lambda: codes.append(
         sweep(design, out, "--scheduler", cluster.address)))
-    pids = {str(p.pid) for p in cluster.workers}
     thread.start()
     killed = None
     with Client(cluster.address, timeout="60s") as client:
-        worker_pids = client.run(os.getpid)  # worker address -> process id
+        pids = client.run(os.getpid)  # worker address -> process id
         deadline = time.monotonic() + 300
         while killed is None and time.monotonic() < deadline:
             busy = [w for w, keys in client.processing().items()
                     if any(str(k).startswith("sweep-") for k in keys)]
             if busy:
                 time.sleep(5)  # mid-task
-                killed = next(p for p in cluster.workers if p.pid == worker_pids[busy[0]])
+                killed = next(p for p in cluster.workers if p.pid == pids[busy[0]])
                 cluster.kill(killed)
             time.sleep(0.5)
     thread.join(timeout=1800)
-    return {"out": out, "codes": codes, "killed": killed, "pids": pids}
-
-
-def test_cluster_sweep_equals_local(cluster: Cluster, cluster_sweep: dict[str, Any],
-                                    local_sweep: Path) -> None:
-    out = cluster_sweep["out"]
-    assert cluster_sweep["codes"] == [0]
-    assert_same_table(out, local_sweep)
-    summary = json.loads((out / "sweep.json").read_text())
-    workers = {v["worker"].rsplit(":", 1)[1] for v in summary["variants"]}
-    assert workers <= cluster_sweep["pids"] and str(os.getpid()) not in workers
-    for i in range(2):  # the workers wrote nothing into their working folders
-        assert sorted(p.name for p in (cluster.root / f"worker{i}").iterdir()) == \
-            ["log.txt", "scratch"]
-
-
-def test_killed_worker_still_gives_every_row(cluster: Cluster, cluster_sweep: dict[str, Any],
-                                            local_sweep: Path) -> None:
-    out, killed = cluster_sweep["out"], cluster_sweep["killed"]
-    assert killed is not None and cluster_sweep["codes"] == [0]
+    assert killed is not None and codes == [0]
     summary = json.loads((out / "sweep.json").read_text())
     assert summary["done"] == 2
     survivors = {str(p.pid) for p in cluster.workers if p is not killed}
