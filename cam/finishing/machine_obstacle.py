@@ -140,8 +140,11 @@ class MachineObstacle(SceneWrapper, CollisionScene):
 
     def motion_margin(self, tool: Tool, tip: ArrayLike, axis: ArrayLike) -> Array:
         """Smallest margin per motion segment ``i -> i + 1`` (joint-linear samples, both
-        inverse branches inside the tilt limits, each followed continuously:
-        ``continuous_branches``), mm ``(n - 1,)``."""
+        inverse branches inside the tilt limits, each followed as the post follows it:
+        a move whose axis keeps off the C axis stays on its branch, one that passes
+        it takes the nearer solution; ``continuous_branches``), mm ``(n - 1,)``."""
+        from postproc.pole import keeps_branch
+
         tip = np.asarray(tip, np.float64).reshape(-1, 3)
         axis = np.asarray(axis, np.float64).reshape(-1, 3)
         query = self.query(tool)
@@ -150,7 +153,8 @@ class MachineObstacle(SceneWrapper, CollisionScene):
         if n < 2 or not query.pairs:
             return out
         lower, upper = self.kins.machine.limits()
-        for branch in continuous_branches(self.kins.inverse_branches(tip, axis)):
+        keep = keeps_branch(axis, np.ones(n, dtype=bool), DEFAULT_TOLERANCES.angular)
+        for branch in continuous_branches(self.kins.inverse_branches(tip, axis), keep):
             joints = branch.copy()
             joints[:, 4] = np.unwrap(joints[:, 4])
             inside = (joints[:, 3] >= lower[3] - 1e-9) & (joints[:, 3] <= upper[3] + 1e-9)
@@ -207,21 +211,29 @@ class MachineObstacle(SceneWrapper, CollisionScene):
         return self._combine(report, self.motion_margin(tool, tip, axis) < self.margin)
 
 
-def continuous_branches(branches: Array) -> Array:
+def continuous_branches(branches: Array, keep: NDArray[np.bool_] | None = None) -> Array:
     """The two inverse solutions of a posture sequence, each followed continuously.
 
     ``inverse_branches`` lists the tilt >= 0 solution first at every posture; where a
-    path's axis passes by the C axis the joints the post computes change the sign of
-    the tilt (A through 0, C almost unchanged), so the tilt-sign branches would jump C
-    by about 180 deg there: a move no program makes. Here each sequence takes, at
-    every posture, the solution nearer (``|dA| + |dC|``, C modulo a turn) to its own
-    at the posture before; the two sequences are mirror images, so the choice made
-    for the first decides the second.
+    path's axis passes through the C axis the joints the post computes change the
+    sign of the tilt (A through 0, C almost unchanged), so the tilt-sign branches
+    would jump C by about 180 deg there: a move no program makes. Here each sequence
+    takes, at every posture, the solution nearer (``|dA| + |dC|``, C modulo a turn)
+    to its own at the posture before; the two sequences are mirror images, so the
+    choice made for the first decides the second.
+
+    A feed move whose great circle keeps farther than the angular tolerance from the
+    C axis stays on its branch in the post (``postproc.pole.keeps_branch``), however
+    far C then turns: ``keep`` marks those moves, which never change sequence here
+    (the splitter's round-2 rest stepover turned C by 125 deg there, and its holder
+    met the mandrel nut where the nearer solution saw none).
 
     Parameters
     ----------
     branches : (2, n, 5) float64
         Both solutions per posture (X Y Z mm, A C rad).
+    keep : (n,) bool, optional
+        ``keep[i]``: the move into posture ``i`` stays on its branch.
 
     Returns
     -------
@@ -235,6 +247,8 @@ def continuous_branches(branches: Array) -> Array:
         return np.asarray(np.abs(b[:, 3] - a[:, 3]) + turn)
 
     swap = change(first[:-1], second[1:]) < change(first[:-1], first[1:])
+    if keep is not None:
+        swap &= ~np.asarray(keep, dtype=bool)[1:]
     odd = np.concatenate([[False], np.cumsum(swap) % 2 == 1])
     return np.stack([np.where(odd[:, None], second, first),
                      np.where(odd[:, None], first, second)])

@@ -266,3 +266,51 @@ def test_postures_asked_again_get_the_same_blocked_answer(trunnion: dict[str, An
     moved[0, 2] += 1e-9  # another posture: asked anew
     obstacle.posture_blocked(SHORT_TOOL, moved, axis)
     assert obstacle.stats["poses"] > asked
+
+
+#: The round-2 rest stepover of the splitter chain (rest2_blade.apt, poses 1199-1202)
+#: the post refused: the stepover's tool axis passes 2-3 deg from the C axis, so the
+#: feed move stays on its inverse branch and C turns 125 deg in the last move, which
+#: carries the holder into the mandrel nut. The nearer (tilt-through-0) solution the
+#: planner used to follow does not meet it.
+_POLE_TIPS = np.array([[-38.732026, 68.288087, 8.672009], [-39.002003, 67.787385, 8.562375],
+                       [-39.181016, 67.214608, 8.552976], [-39.669893, 64.892008, 8.726671]])
+_POLE_AXES = np.array([[0.031552, -0.1602, 0.98658], [0.034521, -0.141133, 0.989389],
+                       [0.040855, -0.099986, 0.99415], [0.071615, 0.109657, 0.991386]])
+
+
+def test_a_feed_move_past_the_c_axis_is_checked_on_the_posts_branch(
+        trunnion: dict[str, Any]) -> None:
+    """The planner's motion check follows the branch the post keeps (a feed move whose
+    axis keeps off the C axis), and so finds the holder contact finish.json's machine
+    entry finds on the same moves; the postures themselves are clear."""
+    from postproc.pole import keeps_branch
+    from postproc.toolpath import MoveKind, Toolpath
+
+    from cam.finishing.machine_obstacle import continuous_branches
+    from impeller_cam.tolerances import DEFAULT_TOLERANCES
+
+    kins, machine = trunnion["kins"], trunnion["machine"]
+    axis = _POLE_AXES / np.linalg.norm(_POLE_AXES, axis=1, keepdims=True)
+    kind = np.array([MoveKind.PLUNGE] * 3 + [MoveKind.FEED], np.int8)
+    keep = keeps_branch(axis, kind != MoveKind.RAPID, DEFAULT_TOLERANCES.angular)
+    assert keep[1:].all()  # no move passes within the angular tolerance of the pole
+    post = kins.inverse(_POLE_TIPS, axis, keep_branch=keep)
+    assert abs(math.degrees(post[-1, 4] - post[-2, 4])) > 100.0  # C turns in one move
+    followed = continuous_branches(kins.inverse_branches(_POLE_TIPS, axis), keep)
+    assert any(np.allclose(post[:, 3], row[:, 3], atol=1e-9)
+               and np.allclose(np.angle(np.exp(1j * (post[:, 4] - row[:, 4]))), 0.0,
+                               atol=1e-9) for row in followed)
+
+    obstacle = MachineObstacle(_far_scene(), machine.model, kins, trunnion["part"])
+    path = Toolpath(tip=_POLE_TIPS, axis=axis, feed=np.full(4, 1000.0), kind=kind,
+                    name="blade", tool_number=SHORT_TOOL.number)
+    entry = operation_clearance(obstacle, SHORT_TOOL, path)
+    assert entry["machine_collision_moves"] == 1
+    assert entry["machine_clearance_pair"] == ["holder", "mandrel_nut"]
+    assert not obstacle.posture_blocked(SHORT_TOOL, _POLE_TIPS, axis).any()
+    margin = obstacle.motion_margin(SHORT_TOOL, _POLE_TIPS, axis)
+    assert margin[-1] < 0.0 and (margin[:-1] >= obstacle.margin).all()
+    report = obstacle.check_motion(SHORT_TOOL, _POLE_TIPS, axis, max_step_mm=1.0,
+                                   max_step_deg=1.0)
+    assert report.collides[-1] and report.hit_role[-1] == MACHINE_ROLE
