@@ -30,9 +30,18 @@ leaves out the postures there (finish.json ``cut_short``). The finish stage
    applies (collisions with the design, the rough stock and the machine; links); it
    writes ``rest/`` (``rest_*.apt``, its finish.json);
 4. **verifies** the rest programs, posted as the post stage will, on the rough stock
-   into ``verify/rest/``;
-5. **finishes again against that stock**, planning anew only the passes that held
-   those left-out postures; every other pass keeps its plan (clean against the rough
+   into ``verify/rest/``; then, **in rounds**: where this round's own plan left
+   postures out for the stock it met (near samples of the stock it left beyond the
+   limit: ``rest_trigger.stock_left_out`` on its ``cut_short``), another round is
+   planned the same way on the stock it left (``rest/round<k>/``, prefix
+   ``rest<k>``) and verified on it (``verify/rest/round<k>/``), while that number
+   falls, at most ``MAX_ROUNDS`` rounds. One plan is checked against the stock before
+   it as a whole, so a posture whose neck meets excess stock that another pass of the
+   same round removes is left out: on the splitter fixture the inlet ends of the main
+   blades' pressure sides carry 3-4 mm of rough stock over some 14 mm of span, and a
+   round frees about one flute length of it;
+5. **finishes again against the last round's stock**, planning anew only the passes
+   that held finishing's left-out postures; every other pass keeps its plan (clean against the rough
    stock, so against the smaller rest stock too). The second run takes over from the
    first what it would make again (``cam.finishing.run_memo``): the design's collision
    scene, the machine reach check, and the links, link checks, machine entries, APT
@@ -61,16 +70,17 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-from cam.run.stages import Context, finish_options, read_json
+from cam.run.stages import Context, finish_options, read_json, rest_round_folder
 from impeller_cam.atomic import replace_path, write_text_atomic
 
 if TYPE_CHECKING:
     from cam.finishing.paths import CutterPath
     from cam.finishing.plan_memo import PlanMemo
     from cam.run.rough_stock import RoughStock
+    from cam.verify.deviation import Deviation
 
-__all__ = ["PAD", "REST", "REST_VERIFY", "RestPlan", "RestTrim", "finish_with_rest", "plan_rest",
-           "rest_samples"]
+__all__ = ["MAX_ROUNDS", "PAD", "REST", "REST_VERIFY", "RestPlan", "RestTrim",
+           "finish_with_rest", "plan_rest", "rest_samples", "rest_verify_folder"]
 
 #: The rest operation's folder (relative to the output).
 REST = "rest"
@@ -78,6 +88,8 @@ REST = "rest"
 REST_VERIFY = "verify/rest"
 #: Points added to each end of a run of points that need the rest operation.
 PAD = 2
+#: Rounds of the rest operation at most, each on the stock the round before left.
+MAX_ROUNDS = 3
 
 
 def rest_samples(points: NDArray[np.float64], signed: NDArray[np.float64],
@@ -224,8 +236,9 @@ def plan_rest(ctx: Context, rough: RoughStock, finished: dict[str, Any]) -> Rest
 
     Writes ``rest/rest.json`` (always: whether it was needed and why) and, when
     needed, the rest APT files (``run_finish``, prefix ``rest``) and their
-    verification in ``verify/rest``; an earlier ``rest/`` and ``verify/rest`` are
-    replaced.
+    verification in ``verify/rest``, and those of the later rounds (module docstring,
+    step 4: ``rest/round<k>``, prefix ``rest<k>``, ``verify/rest/round<k>``;
+    rest.json ``rounds``); an earlier ``rest/`` and ``verify/rest`` are replaced.
 
     Parameters
     ----------
@@ -274,23 +287,49 @@ def plan_rest(ctx: Context, rough: RoughStock, finished: dict[str, Any]) -> Rest
         return nothing
     options = rest_options(ctx)
     stepover = scallop_stepover(tool.radius, float(options["scallop_mm"]))
-    trim = RestTrim(samples, tool.radius + float(options["allowance_mm"]) + 0.5 * stepover,
-                    float(spec.pitch), int(spec.blades), blocked=blocked.centres, span=span)
-    document = run_finish(ctx.spec, ctx.machine, ctx.settings.finish_tool, folder,
-                          options=FinishOptions.from_mapping(options), progress=False,
-                          plots=False, stock=rough.path, design=rough.design,
-                          design_distance=rough.distance, keep=trim, prefix="rest")
-    record.update(planned=True, reach_mm=round(trim.reach, 4),
-                  paths=document["summary"]["paths"], points=document["summary"]["points"],
-                  left_out_points=document["summary"]["left_out_points"],
-                  operations=sorted(document["operations"]))
-    if not document["operations"]:
-        _write_record(folder, record)
-        return nothing
-    stock_path = _verify_rest(ctx, rough, document, eta + float(options["scallop_mm"]))
-    record["verify"] = REST_VERIFY
+    allowance = eta + float(options["scallop_mm"])
+    reach = tool.radius + float(options["allowance_mm"]) + 0.5 * stepover
+    stock_path, replan = rough.path, blocked.passes
+    rounds: list[dict[str, Any]] = []  # the rounds after the first
+    document: dict[str, Any] = {}
+    deviation: Deviation | None = None
+    for round_ in range(1, MAX_ROUNDS + 1):
+        if round_ > 1:  # where the round before left postures out for the stock it met
+            if deviation is None or not meets_stock(document["cut_short"]):
+                break
+            samples = rest_samples(deviation.points, deviation.distance,
+                                   _milled(ctx, rough, deviation.points, deviation.distance,
+                                           _faces(rough, deviation)), limit)
+            again = stock_left_out(document["cut_short"], samples, span, float(spec.pitch))
+            rounds.append({"round": round_, "stock_left_out_points": again.points})
+            if not again.points or again.points >= blocked.points:
+                break
+            blocked = again
+        trim = RestTrim(samples, reach, float(spec.pitch), int(spec.blades),
+                        blocked=blocked.centres, span=span)
+        document = run_finish(ctx.spec, ctx.machine, ctx.settings.finish_tool,
+                              ctx.out / rest_round_folder(round_),
+                              options=FinishOptions.from_mapping(options), progress=False,
+                              plots=False, stock=stock_path, design=rough.design,
+                              design_distance=rough.distance, keep=trim,
+                              prefix="rest" if round_ == 1 else f"rest{round_}")
+        if round_ == 1:
+            record.update(planned=True, reach_mm=round(trim.reach, 4))
+        else:
+            rounds[-1].update(folder=rest_round_folder(round_))
+        entry = record if round_ == 1 else rounds[-1]
+        summary = document["summary"]
+        entry.update(paths=summary["paths"], points=summary["points"],
+                     left_out_points=summary["left_out_points"],
+                     operations=sorted(document["operations"]))
+        if not document["operations"]:
+            break
+        stock_path, deviation = _verify_rest(ctx, rough, document, allowance, stock_path,
+                                             round_)
+        entry["verify"] = rest_verify_folder(round_)
+    record["rounds"] = rounds
     _write_record(folder, record)
-    return RestPlan(stock_path, blocked.passes)
+    return nothing if stock_path == rough.path else RestPlan(stock_path, replan)
 
 
 def finish_with_rest(ctx: Context, rough: RoughStock,
@@ -370,9 +409,25 @@ def _write_record(folder: Path, record: dict[str, Any]) -> None:
     write_text_atomic(folder / "rest.json", json.dumps(record, indent=2) + "\n")
 
 
+def rest_verify_folder(round_: int) -> str:
+    """Where the finish stage leaves the verification of the rest operation's round
+    ``round_`` (from 1; relative to the output): ``verify/rest``, then
+    ``verify/rest/round<k>`` (the verify stage keeps ``verify/rest`` whole)."""
+    return REST_VERIFY if round_ == 1 else f"{REST_VERIFY}/round{round_}"
+
+
+def _faces(rough: RoughStock, deviation: Deviation) -> NDArray[np.int64]:
+    """The closest design face of each sample of ``deviation`` (measured when absent)."""
+    if deviation.faces is not None:
+        return np.asarray(deviation.faces, np.int64)
+    return np.asarray(rough.distance.closest(deviation.points)[1], np.int64)
+
+
 def _verify_rest(ctx: Context, rough: RoughStock, document: dict[str, Any],
-                 allowance: float) -> Path:
-    """Post the rest APT files and verify them on the rough stock (``verify/rest``)."""
+                 allowance: float, start: Path, round_: int) -> tuple[Path, Deviation]:
+    """Post the APT files of the rest operation's round ``round_`` and verify them on
+    the stock ``start`` (the rough stock, or the round before's) into
+    ``rest_verify_folder(round_)``; the stock they leave and its deviation."""
     from cam.verify.command import VerifyOptions, run_verify
     from cam.verify.stock import Stock
     from postproc.command import post_text
@@ -380,26 +435,29 @@ def _verify_rest(ctx: Context, rough: RoughStock, document: dict[str, Any],
     from postproc.posts import get_post
 
     dialect = get_post(ctx.settings.post or load_machine(ctx.machine).post)
-    target = ctx.out / REST_VERIFY
+    target = ctx.out / rest_verify_folder(round_)
+    target.parent.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=".rest-staging-", dir=target.parent))
     try:
         (stage / "nc").mkdir()
         programs = []
         for op in _ordered(document["operations"]):
-            apt = ctx.out / REST / document["operations"][op]["apt"]
+            apt = ctx.out / rest_round_folder(round_) / document["operations"][op]["apt"]
             nc = stage / "nc" / f"{apt.stem}.{dialect.extension}"
             write_text_atomic(nc, post_text(apt, ctx.machine, post=dialect.name))
             programs.append(nc)
-        run_verify(programs, ctx.machine, ctx.settings.finish_tool, str(rough.path),
-                   ctx.spec, ctx.settings.verify_resolution_mm, stage,
-                   options=VerifyOptions(allowance=allowance, render_each_program=False),
-                   progress=False, design_distance=rough.distance,
-                   initial_stock=Stock.load(rough.path))
+        deviation = run_verify(programs, ctx.machine, ctx.settings.finish_tool, str(start),
+                               ctx.spec, ctx.settings.verify_resolution_mm, stage,
+                               options=VerifyOptions(allowance=allowance,
+                                                     render_each_program=False),
+                               progress=False, design_distance=rough.distance,
+                               initial_stock=Stock.load(start))
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)
         raise
+    assert deviation is not None
     replace_path(stage, target)
-    return target / "stock.npz"
+    return target / "stock.npz", deviation
 
 
 def _ordered(operations: dict[str, Any]) -> list[str]:

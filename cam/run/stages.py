@@ -156,29 +156,35 @@ def finish_stage(ctx: Context) -> None:
 
 def apt_files(ctx: Context) -> list[tuple[str, str, str]]:
     """``(operation, apt relative path, tool name)`` of every APT file, machining order
-    (rough, the rest operation's, finish)."""
+    (rough, the rest operation's rounds, finish)."""
     rough = read_json(ctx, "rough/rough.json", "rough")
     finish = read_json(ctx, "finish/finish.json", "finish")
     out = [("rough", f"rough/{op['apt']}", rough["tool"]["name"])
            for op in rough["operations"]]
-    for stage, document in (("rest", rest_finish(ctx)), ("finish", finish)):
-        if document is None:
-            continue
+    documents = [("rest", folder, document) for folder, document in rest_finishes(ctx)]
+    for stage, folder, document in [*documents, ("finish", "finish", finish)]:
         ops = document["operations"]
         order = [op for op in FINISH_ORDER if op in ops] + sorted(set(ops) - set(FINISH_ORDER))
-        out += [(stage, f"{stage}/{ops[op]['apt']}",
+        out += [(stage, f"{folder}/{ops[op]['apt']}",
                  ops[op].get("tool", document["tool"])["name"]) for op in order]
     return out
 
 
-def rest_finish(ctx: Context) -> dict[str, Any] | None:
-    """The rest operation's finish.json (``cam.run.rest``); None when it has none."""
-    path = ctx.out / "rest" / "finish.json"
-    if not path.is_file():
-        return None
-    data = json.loads(path.read_text(encoding="utf-8"))
-    assert isinstance(data, dict)
-    return data
+def rest_round_folder(round_: int) -> str:
+    """Folder (relative to the output) of the rest operation's round ``round_`` (from
+    1): ``rest`` for the first, ``rest/round<k>`` for the later ones (``cam.run.rest``)."""
+    return "rest" if round_ == 1 else f"rest/round{round_}"
+
+
+def rest_finishes(ctx: Context) -> list[tuple[str, dict[str, Any]]]:
+    """``(folder, finish.json)`` of every round of the rest operation (``cam.run.rest``),
+    machining order; empty when it has none."""
+    found: list[tuple[str, dict[str, Any]]] = []
+    while (path := ctx.out / rest_round_folder(len(found) + 1) / "finish.json").is_file():
+        data = json.loads(path.read_text(encoding="utf-8"))
+        assert isinstance(data, dict)
+        found.append((rest_round_folder(len(found) + 1), data))
+    return found
 
 
 def known_collisions(finish: dict[str, Any]) -> list[str]:
@@ -214,9 +220,9 @@ def post_stage(ctx: Context) -> None:
     from postproc.posts import get_post
 
     files = apt_files(ctx)  # names the first stage whose outputs are missing
-    rest = rest_finish(ctx)
-    found = known_collisions(read_json(ctx, "finish/finish.json", "finish")) + (
-        [] if rest is None else [f"rest {line}" for line in known_collisions(rest)])
+    found = known_collisions(read_json(ctx, "finish/finish.json", "finish")) + [
+        f"{folder} {line}" for folder, rest in rest_finishes(ctx)
+        for line in known_collisions(rest)]
     if found:
         shown = "; ".join(found[:10]) + (f"; and {len(found) - 10} more"
                                          if len(found) > 10 else "")

@@ -284,11 +284,10 @@ def test_a_feed_move_past_the_c_axis_is_checked_on_the_posts_branch(
     """The planner's motion check follows the branch the post keeps (a feed move whose
     axis keeps off the C axis), and so finds the holder contact finish.json's machine
     entry finds on the same moves; the postures themselves are clear."""
-    from postproc.pole import keeps_branch
-    from postproc.toolpath import MoveKind, Toolpath
-
     from cam.finishing.machine_obstacle import continuous_branches
     from impeller_cam.tolerances import DEFAULT_TOLERANCES
+    from postproc.pole import keeps_branch
+    from postproc.toolpath import MoveKind, Toolpath
 
     kins, machine = trunnion["kins"], trunnion["machine"]
     axis = _POLE_AXES / np.linalg.norm(_POLE_AXES, axis=1, keepdims=True)
