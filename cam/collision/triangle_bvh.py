@@ -363,7 +363,13 @@ def _slabs(
 _REACH_SLACK = 1e-9
 
 
-@numba.njit(cache=True, nogil=True)
+#: Points per parallel chunk of ``_distances_within`` (each chunk runs its points in
+#: order, warm-starting each search from the point before; a chunk's first point
+#: searches cold, with the same result).
+_CHUNK = 256
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
 def _distances_within(
     points: NDArray[np.float64],
     reach: float,
@@ -378,15 +384,43 @@ def _distances_within(
     first: NDArray[np.int64],
     size: NDArray[np.int64],
 ) -> NDArray[np.float64]:  # pragma: no cover - compiled
-    out = np.empty(points.shape[0])
+    n = points.shape[0]
+    out = np.empty(n)
+    chunks = (n + _CHUNK - 1) // _CHUNK
+    for c in numba.prange(chunks):
+        _distances_chunk(points, reach, tris, tri_centre, tri_radius, tri_slab, node_lo,
+                         node_hi, node_slab, left, first, size, c * _CHUNK,
+                         min(n, (c + 1) * _CHUNK), out)
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _distances_chunk(
+    points: NDArray[np.float64],
+    reach: float,
+    tris: NDArray[np.float64],
+    tri_centre: NDArray[np.float64],
+    tri_radius: NDArray[np.float64],
+    tri_slab: NDArray[np.float64],
+    node_lo: NDArray[np.float64],
+    node_hi: NDArray[np.float64],
+    node_slab: NDArray[np.float64],
+    left: NDArray[np.int64],
+    first: NDArray[np.int64],
+    size: NDArray[np.int64],
+    begin: int,
+    end: int,
+    out: NDArray[np.float64],
+) -> None:  # pragma: no cover - compiled
+    """``_distances_within`` of points ``begin:end`` into ``out``."""
     stack = np.empty(STACK, dtype=np.int64)
     lower = np.empty(STACK)
     none = np.zeros((0, 2))
     zero = np.zeros(3)
     root = int(np.int64(0))  # typed int64, not Literal[int](0): no second signature
-    for q in range(points.shape[0]):
+    for q in range(begin, end):
         limit = reach
-        if q > 0 and out[q - 1] < reach:
+        if q > begin and out[q - 1] < reach:
             # 1-Lipschitz: d(q) <= d(q-1) + |q - (q-1)|; a search within a reach just
             # above that finds the same nearest triangle (the same value), sooner
             # (consecutive points, e.g. grid nodes, are close)
@@ -399,7 +433,6 @@ def _distances_within(
             tri_radius, tri_slab, node_lo, node_hi, node_slab, left, first, size, root, stack,
             lower, none, zero, zero, 0.0,
         )[0]
-    return out
 
 
 class TriangleBVH:

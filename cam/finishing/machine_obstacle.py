@@ -143,8 +143,6 @@ class MachineObstacle(SceneWrapper, CollisionScene):
         inverse branches inside the tilt limits, each followed as the post follows it:
         a move whose axis keeps off the C axis stays on its branch, one that passes
         it takes the nearer solution; ``continuous_branches``), mm ``(n - 1,)``."""
-        from postproc.pole import keeps_branch
-
         tip = np.asarray(tip, np.float64).reshape(-1, 3)
         axis = np.asarray(axis, np.float64).reshape(-1, 3)
         query = self.query(tool)
@@ -153,8 +151,7 @@ class MachineObstacle(SceneWrapper, CollisionScene):
         if n < 2 or not query.pairs:
             return out
         lower, upper = self.kins.machine.limits()
-        keep = keeps_branch(axis, np.ones(n, dtype=bool), DEFAULT_TOLERANCES.angular)
-        for branch in continuous_branches(self.kins.inverse_branches(tip, axis), keep):
+        for branch in continuous_branches(self.kins.inverse_branches(tip, axis), axis):
             joints = branch.copy()
             joints[:, 4] = np.unwrap(joints[:, 4])
             inside = (joints[:, 3] >= lower[3] - 1e-9) & (joints[:, 3] <= upper[3] + 1e-9)
@@ -211,7 +208,7 @@ class MachineObstacle(SceneWrapper, CollisionScene):
         return self._combine(report, self.motion_margin(tool, tip, axis) < self.margin)
 
 
-def continuous_branches(branches: Array, keep: NDArray[np.bool_] | None = None) -> Array:
+def continuous_branches(branches: Array, axis: Array | None = None) -> Array:
     """The two inverse solutions of a posture sequence, each followed continuously.
 
     ``inverse_branches`` lists the tilt >= 0 solution first at every posture; where a
@@ -224,16 +221,17 @@ def continuous_branches(branches: Array, keep: NDArray[np.bool_] | None = None) 
 
     A feed move whose great circle keeps farther than the angular tolerance from the
     C axis stays on its branch in the post (``postproc.pole.keeps_branch``), however
-    far C then turns: ``keep`` marks those moves, which never change sequence here
-    (the splitter's round-2 rest stepover turned C by 125 deg there, and its holder
-    met the mandrel nut where the nearer solution saw none).
+    far C then turns: given the postures' ``axis``, such moves never change sequence
+    here (the splitter's round-2 rest stepover turned C by 125 deg there, and its
+    holder met the mandrel nut where the nearer solution saw none).
 
     Parameters
     ----------
     branches : (2, n, 5) float64
         Both solutions per posture (X Y Z mm, A C rad).
-    keep : (n,) bool, optional
-        ``keep[i]``: the move into posture ``i`` stays on its branch.
+    axis : (n, 3) float64, optional
+        The postures' unit tool axes in W: every move is a cut, and only those that
+        pass within the angular tolerance of the C axis may change sequence.
 
     Returns
     -------
@@ -247,8 +245,12 @@ def continuous_branches(branches: Array, keep: NDArray[np.bool_] | None = None) 
         return np.asarray(np.abs(b[:, 3] - a[:, 3]) + turn)
 
     swap = change(first[:-1], second[1:]) < change(first[:-1], first[1:])
-    if keep is not None:
-        swap &= ~np.asarray(keep, dtype=bool)[1:]
+    if axis is not None and swap.any():  # the pole test only where the nearer swaps
+        from postproc.pole import keeps_branch
+
+        keep = keeps_branch(np.asarray(axis, dtype=np.float64),
+                            np.concatenate([[False], swap]), DEFAULT_TOLERANCES.angular)
+        swap &= ~keep[1:]
     odd = np.concatenate([[False], np.cumsum(swap) % 2 == 1])
     return np.stack([np.where(odd[:, None], second, first),
                      np.where(odd[:, None], first, second)])

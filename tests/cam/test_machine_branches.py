@@ -59,3 +59,34 @@ def test_branches_away_from_the_c_axis_are_unchanged() -> None:
     tip = np.column_stack([np.linspace(30.0, 40.0, n), np.zeros(n), np.full(n, 5.0)])
     raw = kins.inverse_branches(tip, axis)
     assert np.array_equal(continuous_branches(raw), raw)
+
+
+@pytest.mark.parametrize("aside_deg", [0.2, 0.6, 3.0])
+def test_branches_follow_the_posts_rule_given_the_axes(aside_deg: float) -> None:
+    """Given the axes, a move stays on its branch unless its great circle passes within
+    the angular tolerance (0.5 deg) of the C axis, as the post's ``keeps_branch``
+    says: one of the two sequences is always the post's joints for a cut."""
+    from impeller_cam.tolerances import DEFAULT_TOLERANCES
+    from postproc.pole import keeps_branch
+
+    kins = kinematics_for(load_machine(ROOT / "fixtures" / "machines" / "trunnion-500.toml"))
+    n = 12
+    lean = np.linspace(-0.3, 0.3, n)
+    axis = np.column_stack([lean, np.full(n, math.tan(math.radians(aside_deg))), np.ones(n)])
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    tip = np.column_stack([np.linspace(60.0, 62.0, n), np.zeros(n), np.full(n, 10.0)])
+    keep = keeps_branch(axis, np.ones(n, dtype=bool), DEFAULT_TOLERANCES.angular)
+    assert keep[1:].all() == (aside_deg > 0.5)
+    post = kins.inverse(tip, axis, keep_branch=keep)
+    followed = continuous_branches(kins.inverse_branches(tip, axis), axis)
+    match = [np.allclose(post[:, 3], row[:, 3], atol=1e-9)
+             and np.allclose(_turn(post[:, 4] - row[:, 4]), 0.0, atol=1e-9)
+             for row in followed]
+    assert any(match)
+    # outside the tolerance C turns about a half turn along the path and A keeps its
+    # sign; inside it A changes sign and C barely moves
+    for row in followed:
+        turn = abs(float(np.sum(_turn(np.diff(row[:, 4])))))
+        flips = bool(np.any(np.sign(row[1:, 3]) != np.sign(row[:-1, 3])))
+        assert (turn > math.radians(150.0)) == (aside_deg > 0.5)
+        assert flips == (aside_deg <= 0.5)

@@ -296,7 +296,7 @@ def test_a_feed_move_past_the_c_axis_is_checked_on_the_posts_branch(
     assert keep[1:].all()  # no move passes within the angular tolerance of the pole
     post = kins.inverse(_POLE_TIPS, axis, keep_branch=keep)
     assert abs(math.degrees(post[-1, 4] - post[-2, 4])) > 100.0  # C turns in one move
-    followed = continuous_branches(kins.inverse_branches(_POLE_TIPS, axis), keep)
+    followed = continuous_branches(kins.inverse_branches(_POLE_TIPS, axis), axis)
     assert any(np.allclose(post[:, 3], row[:, 3], atol=1e-9)
                and np.allclose(np.angle(np.exp(1j * (post[:, 4] - row[:, 4]))), 0.0,
                                atol=1e-9) for row in followed)
