@@ -105,17 +105,27 @@ def check_links(scene: CollisionScene, tool: Tool, toolpath: Toolpath,
     axis (the post writes it as one straight ``G0``; one that turns it is guarded by
     the post's safe retract) is checked as a rapid: the whole tool, the cutter over its
     fluted length grown by ``clearance_mm``, against the design and the stock.
+
+    The machine model (``MachineObstacle``) checks the feed moves and the straight
+    rapids as the post moves them. A rapid that turns the axis is not moved linearly
+    in W by the post (safe retract, orient, position, down), so its machine check is
+    finish.json's machine entry (``operation_clearance``, the post's moves); here it
+    is checked against the part's scene alone.
     """
+    from cam.finishing.machine_obstacle import MachineObstacle
+
+    part = scene.inner if isinstance(scene, MachineObstacle) else scene
     moving = (air & ~toolpath.link)[1:]
     still = np.linalg.norm(np.diff(toolpath.axis, axis=0), axis=1) < AXIS_STILL
-    rapid = moving & (toolpath.kind[1:] == MoveKind.RAPID) & still
+    rapid = moving & (toolpath.kind[1:] == MoveKind.RAPID)
     bad = 0
-    for mask, allowance in ((moving & ~rapid, options.cutter_allowance_mm),
-                            (rapid, -options.clearance_mm)):
+    for mask, allowance, where in ((moving & ~rapid, options.cutter_allowance_mm, scene),
+                                   (rapid & ~still, options.cutter_allowance_mm, part),
+                                   (rapid & still, -options.clearance_mm, scene)):
         edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
         for start, stop in zip(edges[::2], edges[1::2], strict=True):
             tip, axis = toolpath.tip[start:stop + 1], toolpath.axis[start:stop + 1]
-            report = scene.check_motion(tool, tip, axis, max_step_mm=options.motion_step_mm,
+            report = where.check_motion(tool, tip, axis, max_step_mm=options.motion_step_mm,
                                         max_step_deg=options.motion_step_deg,
                                         cutter_allowance=allowance,
                                         # only compared with the limit: exact below it

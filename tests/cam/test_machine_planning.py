@@ -313,3 +313,28 @@ def test_a_feed_move_past_the_c_axis_is_checked_on_the_posts_branch(
     report = obstacle.check_motion(SHORT_TOOL, _POLE_TIPS, axis, max_step_mm=1.0,
                                    max_step_deg=1.0)
     assert report.collides[-1] and report.hit_role[-1] == MACHINE_ROLE
+
+
+def test_a_turning_plain_rapid_is_checked_by_the_machine_as_the_post_moves_it(
+        trunnion: dict[str, Any]) -> None:
+    """A plain rapid that turns the axis (the splitter's fillet program, pose 450: A 23
+    -> 14.5 deg, C -88 -> 70 deg on the tilt >= 0 branch) is moved by the post with a
+    safe retract, so the links' W-linear check leaves its machine check to
+    finish.json's machine entry, which moves it as the post does and finds it clear;
+    taken linearly in W on its branch it would sweep the holder through the table."""
+    from cam.finishing.linked_ops import check_links
+    from postproc.toolpath import MoveKind, Toolpath
+
+    kins, machine = trunnion["kins"], trunnion["machine"]
+    tip = np.array([[52.069216, 1.436868, 64.531365], [74.433194, 2.05401, 64.531365]])
+    axis = np.array([[-0.389802, -0.013682, 0.920797], [0.235501, -0.085835, 0.968076]])
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    obstacle = MachineObstacle(_far_scene(), machine.model, kins, trunnion["part"])
+    assert obstacle.motion_margin(SHORT_TOOL, tip, axis)[0] < 0.0  # the W-linear move
+    path = Toolpath(tip=tip, axis=axis, feed=np.full(2, math.nan),
+                    kind=np.full(2, MoveKind.RAPID, np.int8), name="fillet",
+                    tool_number=SHORT_TOOL.number)
+    entry = operation_clearance(obstacle, SHORT_TOOL, path)
+    assert entry["guarded_rapids"] == 1 and entry["machine_collision_moves"] == 0
+    assert check_links(obstacle, SHORT_TOOL, path, np.ones(2, dtype=bool),
+                       FinishOptions()) == 0
