@@ -386,53 +386,30 @@ def _distances_within(
 ) -> NDArray[np.float64]:  # pragma: no cover - compiled
     n = points.shape[0]
     out = np.empty(n)
-    chunks = (n + _CHUNK - 1) // _CHUNK
-    for c in numba.prange(chunks):
-        _distances_chunk(points, reach, tris, tri_centre, tri_radius, tri_slab, node_lo,
-                         node_hi, node_slab, left, first, size, c * _CHUNK,
-                         min(n, (c + 1) * _CHUNK), out)
-    return out
-
-
-@numba.njit(cache=True, nogil=True)
-def _distances_chunk(
-    points: NDArray[np.float64],
-    reach: float,
-    tris: NDArray[np.float64],
-    tri_centre: NDArray[np.float64],
-    tri_radius: NDArray[np.float64],
-    tri_slab: NDArray[np.float64],
-    node_lo: NDArray[np.float64],
-    node_hi: NDArray[np.float64],
-    node_slab: NDArray[np.float64],
-    left: NDArray[np.int64],
-    first: NDArray[np.int64],
-    size: NDArray[np.int64],
-    begin: int,
-    end: int,
-    out: NDArray[np.float64],
-) -> None:  # pragma: no cover - compiled
-    """``_distances_within`` of points ``begin:end`` into ``out``."""
-    stack = np.empty(STACK, dtype=np.int64)
-    lower = np.empty(STACK)
     none = np.zeros((0, 2))
     zero = np.zeros(3)
     root = int(np.int64(0))  # typed int64, not Literal[int](0): no second signature
-    for q in range(begin, end):
-        limit = reach
-        if q > begin and out[q - 1] < reach:
-            # 1-Lipschitz: d(q) <= d(q-1) + |q - (q-1)|; a search within a reach just
-            # above that finds the same nearest triangle (the same value), sooner
-            # (consecutive points, e.g. grid nodes, are close)
-            step = math.sqrt((points[q, 0] - points[q - 1, 0]) ** 2
-                             + (points[q, 1] - points[q - 1, 1]) ** 2
-                             + (points[q, 2] - points[q - 1, 2]) ** 2)
-            limit = min(reach, (out[q - 1] + step) * (1.0 + _REACH_SLACK) + _REACH_SLACK)
-        out[q] = nearest_within(
-            points[q, 0], points[q, 1], points[q, 2], limit, -1.0, tris, tri_centre,
-            tri_radius, tri_slab, node_lo, node_hi, node_slab, left, first, size, root, stack,
-            lower, none, zero, zero, 0.0,
-        )[0]
+    for chunk in numba.prange((n + _CHUNK - 1) // _CHUNK):
+        stack = np.empty(STACK, dtype=np.int64)
+        lower = np.empty(STACK)
+        begin = chunk * _CHUNK
+        for q in range(begin, min(n, begin + _CHUNK)):
+            limit = reach
+            if q > begin and out[q - 1] < reach:
+                # 1-Lipschitz: d(q) <= d(q-1) + |q - (q-1)|; a search within a reach
+                # just above that finds the same nearest triangle (the same value),
+                # sooner (consecutive points, e.g. grid nodes, are close)
+                step = math.sqrt((points[q, 0] - points[q - 1, 0]) ** 2
+                                 + (points[q, 1] - points[q - 1, 1]) ** 2
+                                 + (points[q, 2] - points[q - 1, 2]) ** 2)
+                limit = min(reach, (out[q - 1] + step) * (1.0 + _REACH_SLACK)
+                            + _REACH_SLACK)
+            out[q] = nearest_within(
+                points[q, 0], points[q, 1], points[q, 2], limit, -1.0, tris, tri_centre,
+                tri_radius, tri_slab, node_lo, node_hi, node_slab, left, first, size, root,
+                stack, lower, none, zero, zero, 0.0,
+            )[0]
+    return out
 
 
 class TriangleBVH:
