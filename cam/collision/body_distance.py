@@ -301,11 +301,7 @@ def _posture_distance(
     return min(low, cap), np.inf
 
 
-#: Postures per parallel chunk of ``_body_distances``.
-_CHUNK = 8
-
-
-@numba.njit(cache=True, nogil=True, parallel=True)
+@numba.njit(cache=True, nogil=True)
 def _body_distances(
     tris: NDArray[np.float64],
     tri_centre: NDArray[np.float64],
@@ -329,18 +325,16 @@ def _body_distances(
     n = tip.shape[0]
     out_lo = np.empty(n)
     out_hi = np.empty(n)
-    chunks = (n + _CHUNK - 1) // _CHUNK
-    for c in numba.prange(chunks):  # postures are independent: any split, same values
-        stack = np.empty(STACK, dtype=np.int64)
-        lower = np.empty(STACK)
-        simplex = np.empty((4, 3))
-        local = np.empty((3, 3))
-        for q in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
-            out_lo[q], out_hi[q] = _posture_distance(
-                tris, tri_centre, tri_radius, tri_slab, node_lo, node_hi, node_slab, left,
-                first, size, roots[q],
-                tip[q], rot[q], pieces, coarse, spheres, ring, cap, stack, lower, simplex,
-                local)
+    stack = np.empty(STACK, dtype=np.int64)
+    lower = np.empty(STACK)
+    simplex = np.empty((4, 3))
+    local = np.empty((3, 3))
+    for q in range(n):
+        out_lo[q], out_hi[q] = _posture_distance(
+            tris, tri_centre, tri_radius, tri_slab, node_lo, node_hi, node_slab, left, first,
+            size, roots[q],
+            tip[q], rot[q], pieces, coarse, spheres, ring, cap, stack, lower, simplex,
+            local)
     return out_lo, out_hi
 
 

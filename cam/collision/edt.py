@@ -57,14 +57,12 @@ def _envelope(f: NDArray[np.float64], out: NDArray[np.float64], v: NDArray[np.in
         out[q] = d * d + f[v[j]]
 
 
-@numba.njit(cache=True, nogil=True, parallel=True)
+@numba.njit(cache=True, nogil=True)
 def _squared(marked: NDArray[np.bool_]) -> NDArray[np.float64]:  # pragma: no cover - compiled
-    """Squared node distances; every line of a pass is independent of the others
-    (``prange`` over lines: the same values whatever the split)."""
     nx, ny, nz = marked.shape
     d2 = np.empty((nx, ny, nz))
     # along z: squared distance to the nearest unmarked node of the line
-    for i in numba.prange(nx):
+    for i in range(nx):
         for j in range(ny):
             last = -1
             for k in range(nz):
@@ -79,30 +77,27 @@ def _squared(marked: NDArray[np.bool_]) -> NDArray[np.float64]:  # pragma: no co
                     e = float((last - k) * (last - k))
                     if e < d2[i, j, k]:
                         d2[i, j, k] = e
-    for i in numba.prange(nx):  # along y
-        f = np.empty(ny)
-        out = np.empty(ny)
-        v = np.empty(ny, dtype=np.int64)
-        z = np.empty(ny + 1)
+    size = max(nx, ny)
+    f = np.empty(size)
+    out = np.empty(size)
+    v = np.empty(size, dtype=np.int64)
+    z = np.empty(size + 1)
+    for i in range(nx):  # along y
         for k in range(nz):
             for j in range(ny):
                 f[j] = d2[i, j, k]
-            _envelope(f, out, v, z)
+            _envelope(f[:ny], out[:ny], v, z)
             for j in range(ny):
                 d2[i, j, k] = out[j]
-    for j in numba.prange(ny):  # along x
-        plane = np.empty((nx, nz))  # one x-z plane, gathered row by row (contiguous reads)
-        f = np.empty(nx)
-        out = np.empty(nx)
-        v = np.empty(nx, dtype=np.int64)
-        z = np.empty(nx + 1)
+    plane = np.empty((nx, nz))  # one x-z plane, gathered row by row (contiguous reads)
+    for j in range(ny):  # along x
         for i in range(nx):
             for k in range(nz):
                 plane[i, k] = d2[i, j, k]
         for k in range(nz):
             for i in range(nx):
                 f[i] = plane[i, k]
-            _envelope(f, out, v, z)
+            _envelope(f[:nx], out[:nx], v, z)
             for i in range(nx):
                 plane[i, k] = out[i]
         for i in range(nx):

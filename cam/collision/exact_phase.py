@@ -77,11 +77,7 @@ def _sphere_bound(
     return max(b, point_lower_bound(fine, origin, spacing, box_lo, box_hi, x, y, z))
 
 
-#: Postures per parallel chunk of ``_classify_part``.
-_CHUNK = 8
-
-
-@numba.njit(cache=True, nogil=True, parallel=True)
+@numba.njit(cache=True, nogil=True)
 def _classify_part(
     whole: NDArray[np.float32],
     whole_coarse: NDArray[np.float32],
@@ -126,121 +122,119 @@ def _classify_part(
     m = heights.shape[0]
     roles = role_fine.shape[0]
     state = np.zeros((n, roles), dtype=np.int8)
+    centre = np.empty((m, 3))
+    todo = np.empty(m, dtype=np.int64)
+    bits = np.empty(m, dtype=np.int64)
+    pick = np.empty(m, dtype=np.int64)
+    gap = np.empty(m)
+    box_lo_q = np.empty(3)
+    box_hi_q = np.empty(3)
+    stack = np.empty(STACK, dtype=np.int64)
+    lower = np.empty(STACK)
     half_diagonal = 0.5 * math.sqrt(3.0) * spacing
     mx, my, mz = masks.shape
-    # postures are independent: any split into chunks gives the same states
-    for chunk in numba.prange((n + _CHUNK - 1) // _CHUNK):
-        centre = np.empty((m, 3))
-        todo = np.empty(m, dtype=np.int64)
-        bits = np.empty(m, dtype=np.int64)
-        pick = np.empty(m, dtype=np.int64)
-        gap = np.empty(m)
-        box_lo_q = np.empty(3)
-        box_hi_q = np.empty(3)
-        stack = np.empty(STACK, dtype=np.int64)
-        lower = np.empty(STACK)
-        for q in range(chunk * _CHUNK, min(n, (chunk + 1) * _CHUNK)):
-            box_lo_q[:] = np.inf
-            box_hi_q[:] = -np.inf
-            count = 0
-            for s in range(m):
-                h = heights[s]
-                for a in range(3):
-                    centre[s, a] = tip[q, a] + h * axis[q, a]
-                    box_lo_q[a] = min(box_lo_q[a], centre[s, a] - radii[s])
-                    box_hi_q[a] = max(box_hi_q[a], centre[s, a] + radii[s])
+    for q in range(n):
+        box_lo_q[:] = np.inf
+        box_hi_q[:] = -np.inf
+        count = 0
+        for s in range(m):
+            h = heights[s]
+            for a in range(3):
+                centre[s, a] = tip[q, a] + h * axis[q, a]
+                box_lo_q[a] = min(box_lo_q[a], centre[s, a] - radii[s])
+                box_hi_q[a] = max(box_hi_q[a], centre[s, a] + radii[s])
+            need = radii[s] + margin
+            cx, cy, cz = centre[s, 0], centre[s, 1], centre[s, 2]
+            b = coarse_lower_bound(
+                whole_coarse, origin, coarse_spacing, whole_lo, whole_hi, cx, cy, cz
+            )
+            if b > need:
+                continue  # clear of the whole scene
+            # roles that may come within rho + m of this sphere
+            if need + half_diagonal > mask_limit:
+                # too large for the masks: the fine whole-scene grid, then every role
+                b = point_lower_bound(whole, origin, spacing, whole_lo, whole_hi, cx, cy, cz)
+                if b > need:
+                    continue
+                bits[count] = -1
+            else:
+                # the roles in the mask; their own grids are tested next
+                i = int(round((cx - origin[0]) / spacing))
+                j = int(round((cy - origin[1]) / spacing))
+                k = int(round((cz - origin[2]) / spacing))
+                if not (0 <= i < mx and 0 <= j < my and 0 <= k < mz):
+                    continue  # off the grid: farther than the limit from every role
+                bits[count] = masks[i, j, k]
+                if bits[count] == 0:
+                    continue
+            todo[count] = s
+            count += 1
+        if count == 0:
+            continue
+        for r in range(roles):
+            if not role_on[r]:
+                continue
+            chosen = 0
+            for c in range(count):
+                if bits[c] != -1 and ((bits[c] >> r) & 1) == 0:
+                    continue
+                s = todo[c]
                 need = radii[s] + margin
-                cx, cy, cz = centre[s, 0], centre[s, 1], centre[s, 2]
-                b = coarse_lower_bound(
-                    whole_coarse, origin, coarse_spacing, whole_lo, whole_hi, cx, cy, cz
+                b = _sphere_bound(
+                    role_fine[r], role_coarse[r], origin, spacing, coarse_spacing,
+                    role_lo[r], role_hi[r], centre[s, 0], centre[s, 1], centre[s, 2], need,
                 )
                 if b > need:
-                    continue  # clear of the whole scene
-                # roles that may come within rho + m of this sphere
-                if need + half_diagonal > mask_limit:
-                    # too large for the masks: the fine whole-scene grid, then every role
-                    b = point_lower_bound(whole, origin, spacing, whole_lo, whole_hi, cx, cy, cz)
-                    if b > need:
-                        continue
-                    bits[count] = -1
-                else:
-                    # the roles in the mask; their own grids are tested next
-                    i = int(round((cx - origin[0]) / spacing))
-                    j = int(round((cy - origin[1]) / spacing))
-                    k = int(round((cz - origin[2]) / spacing))
-                    if not (0 <= i < mx and 0 <= j < my and 0 <= k < mz):
-                        continue  # off the grid: farther than the limit from every role
-                    bits[count] = masks[i, j, k]
-                    if bits[count] == 0:
-                        continue
-                todo[count] = s
-                count += 1
-            if count == 0:
+                    continue
+                pick[chosen] = s
+                gap[chosen] = b - radii[s]
+                chosen += 1
+            if chosen == 0:
                 continue
-            for r in range(roles):
-                if not role_on[r]:
+            # deepest spheres first: a definite hit, if any, is found with least work
+            for o in range(1, chosen):  # insertion sort of (gap, pick); chosen is small
+                g, v = gap[o], pick[o]
+                j = o - 1
+                while j >= 0 and gap[j] > g:
+                    gap[j + 1], pick[j + 1] = gap[j], pick[j]
+                    j -= 1
+                gap[j + 1], pick[j + 1] = g, v
+            verdict = CLEAR
+            for o in range(chosen):
+                s = pick[o]
+                rho = radii[s]
+                hit_below = inner[s] - margin
+                reach = rho + 2.0 * margin
+                if reach > max_reach:
+                    verdict = UNDECIDED
                     continue
-                chosen = 0
-                for c in range(count):
-                    if bits[c] != -1 and ((bits[c] >> r) & 1) == 0:
-                        continue
-                    s = todo[c]
-                    need = radii[s] + margin
-                    b = _sphere_bound(
-                        role_fine[r], role_coarse[r], origin, spacing, coarse_spacing,
-                        role_lo[r], role_hi[r], centre[s, 0], centre[s, 1], centre[s, 2], need,
-                    )
-                    if b > need:
-                        continue
-                    pick[chosen] = s
-                    gap[chosen] = b - radii[s]
-                    chosen += 1
-                if chosen == 0:
-                    continue
-                # deepest spheres first: a definite hit, if any, is found with least work
-                for o in range(1, chosen):  # insertion sort of (gap, pick); chosen is small
-                    g, v = gap[o], pick[o]
-                    j = o - 1
-                    while j >= 0 and gap[j] > g:
-                        gap[j + 1], pick[j + 1] = gap[j], pick[j]
-                        j -= 1
-                    gap[j + 1], pick[j + 1] = g, v
-                verdict = CLEAR
-                for o in range(chosen):
-                    s = pick[o]
-                    rho = radii[s]
-                    hit_below = inner[s] - margin
-                    reach = rho + 2.0 * margin
-                    if reach > max_reach:
-                        verdict = UNDECIDED
-                        continue
-                    d, t, inside = nearest_within(
-                        centre[s, 0], centre[s, 1], centre[s, 2], reach, hit_below, tris,
-                        tri_centre, tri_radius, tri_slab, node_lo, node_hi, node_slab, left, first,
-                        size, roots[r], stack, lower, profile, tip[q], axis[q], deep,
-                    )
-                    if t < 0:
-                        continue  # nothing within reach: this sphere is clear
-                    # inside: a surface point found strictly inside the true part (in the
-                    # inscribed ball, or deeper than ``deep`` inside the profile)
-                    if inside:
-                        # the surface piece of triangle t enters the true part; it also
-                        # leaves the part mesh if it is larger than the part (allow_hit)
-                        # or sticks out of the box around this posture's spheres
-                        p = piece[t]
-                        outside = False
-                        for a in range(3):
-                            if piece_lo[p, a] < box_lo_q[a] or piece_hi[p, a] > box_hi_q[a]:
-                                outside = True
-                        if allow_hit[r] or outside:
-                            verdict = HIT
-                            break
-                        verdict = UNDECIDED  # (the search stopped early: d may not be the least)
-                    elif d - rho <= margin:
-                        verdict = UNDECIDED
-                state[q, r] = verdict
-                if verdict == HIT:
-                    break  # the posture's answer is this pair (or an earlier one)
+                d, t, inside = nearest_within(
+                    centre[s, 0], centre[s, 1], centre[s, 2], reach, hit_below, tris,
+                    tri_centre, tri_radius, tri_slab, node_lo, node_hi, node_slab, left, first,
+                    size, roots[r], stack, lower, profile, tip[q], axis[q], deep,
+                )
+                if t < 0:
+                    continue  # nothing within reach: this sphere is clear
+                # inside: a surface point found strictly inside the true part (in the
+                # inscribed ball, or deeper than ``deep`` inside the profile)
+                if inside:
+                    # the surface piece of triangle t enters the true part; it also
+                    # leaves the part mesh if it is larger than the part (allow_hit)
+                    # or sticks out of the box around this posture's spheres
+                    p = piece[t]
+                    outside = False
+                    for a in range(3):
+                        if piece_lo[p, a] < box_lo_q[a] or piece_hi[p, a] > box_hi_q[a]:
+                            outside = True
+                    if allow_hit[r] or outside:
+                        verdict = HIT
+                        break
+                    verdict = UNDECIDED  # (the search stopped early: d may not be the least)
+                elif d - rho <= margin:
+                    verdict = UNDECIDED
+            state[q, r] = verdict
+            if verdict == HIT:
+                break  # the posture's answer is this pair (or an earlier one)
     return state
 
 

@@ -363,13 +363,7 @@ def _slabs(
 _REACH_SLACK = 1e-9
 
 
-#: Points per parallel chunk of ``_distances_within`` (each chunk runs its points in
-#: order, warm-starting each search from the point before; a chunk's first point
-#: searches cold, with the same result).
-_CHUNK = 256
-
-
-@numba.njit(cache=True, nogil=True, parallel=True)
+@numba.njit(cache=True, nogil=True)
 def _distances_within(
     points: NDArray[np.float64],
     reach: float,
@@ -384,31 +378,27 @@ def _distances_within(
     first: NDArray[np.int64],
     size: NDArray[np.int64],
 ) -> NDArray[np.float64]:  # pragma: no cover - compiled
-    n = points.shape[0]
-    out = np.empty(n)
+    out = np.empty(points.shape[0])
+    stack = np.empty(STACK, dtype=np.int64)
+    lower = np.empty(STACK)
     none = np.zeros((0, 2))
     zero = np.zeros(3)
     root = int(np.int64(0))  # typed int64, not Literal[int](0): no second signature
-    for chunk in numba.prange((n + _CHUNK - 1) // _CHUNK):
-        stack = np.empty(STACK, dtype=np.int64)
-        lower = np.empty(STACK)
-        begin = chunk * _CHUNK
-        for q in range(begin, min(n, begin + _CHUNK)):
-            limit = reach
-            if q > begin and out[q - 1] < reach:
-                # 1-Lipschitz: d(q) <= d(q-1) + |q - (q-1)|; a search within a reach
-                # just above that finds the same nearest triangle (the same value),
-                # sooner (consecutive points, e.g. grid nodes, are close)
-                step = math.sqrt((points[q, 0] - points[q - 1, 0]) ** 2
-                                 + (points[q, 1] - points[q - 1, 1]) ** 2
-                                 + (points[q, 2] - points[q - 1, 2]) ** 2)
-                limit = min(reach, (out[q - 1] + step) * (1.0 + _REACH_SLACK)
-                            + _REACH_SLACK)
-            out[q] = nearest_within(
-                points[q, 0], points[q, 1], points[q, 2], limit, -1.0, tris, tri_centre,
-                tri_radius, tri_slab, node_lo, node_hi, node_slab, left, first, size, root,
-                stack, lower, none, zero, zero, 0.0,
-            )[0]
+    for q in range(points.shape[0]):
+        limit = reach
+        if q > 0 and out[q - 1] < reach:
+            # 1-Lipschitz: d(q) <= d(q-1) + |q - (q-1)|; a search within a reach just
+            # above that finds the same nearest triangle (the same value), sooner
+            # (consecutive points, e.g. grid nodes, are close)
+            step = math.sqrt((points[q, 0] - points[q - 1, 0]) ** 2
+                             + (points[q, 1] - points[q - 1, 1]) ** 2
+                             + (points[q, 2] - points[q - 1, 2]) ** 2)
+            limit = min(reach, (out[q - 1] + step) * (1.0 + _REACH_SLACK) + _REACH_SLACK)
+        out[q] = nearest_within(
+            points[q, 0], points[q, 1], points[q, 2], limit, -1.0, tris, tri_centre,
+            tri_radius, tri_slab, node_lo, node_hi, node_slab, left, first, size, root, stack,
+            lower, none, zero, zero, 0.0,
+        )[0]
     return out
 
 
