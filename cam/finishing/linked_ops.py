@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cam.finishing.linking import Envelope, Linker, LinkRules
+from cam.finishing.machine_obstacle import MachineObstacle
 from cam.finishing.order import ordered_passes
 from cam.finishing.run_memo import MadeOperation
 from postproc.toolpath import Cutter, MoveKind, Toolpath
@@ -112,8 +113,6 @@ def check_links(scene: CollisionScene, tool: Tool, toolpath: Toolpath,
     finish.json's machine entry (``operation_clearance``, the post's moves); here it
     is checked against the part's scene alone.
     """
-    from cam.finishing.machine_obstacle import MachineObstacle
-
     part = scene.inner if isinstance(scene, MachineObstacle) else scene
     moving = (air & ~toolpath.link)[1:]
     still = np.linalg.norm(np.diff(toolpath.axis, axis=0), axis=1) < AXIS_STILL

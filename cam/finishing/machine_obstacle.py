@@ -38,6 +38,7 @@ from cam.collision.scene_wrapper import SceneWrapper
 from cam.verify.machine_query import MachineClearance, joint_path_samples
 from cam.verify.machine_scene import machine_scene
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
+from postproc.pole import keeps_branch
 
 if TYPE_CHECKING:
     from cam.tools import Tool
@@ -246,8 +247,6 @@ def continuous_branches(branches: Array, axis: Array | None = None) -> Array:
 
     swap = change(first[:-1], second[1:]) < change(first[:-1], first[1:])
     if axis is not None and swap.any():  # the pole test only where the nearer swaps
-        from postproc.pole import keeps_branch
-
         keep = keeps_branch(np.asarray(axis, dtype=np.float64),
                             np.concatenate([[False], swap]), DEFAULT_TOLERANCES.angular)
         swap &= ~keep[1:]
