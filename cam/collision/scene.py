@@ -35,8 +35,9 @@ catches the crossing within its stated bound).
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 
 import fcl
 import numpy as np
@@ -69,6 +70,7 @@ from cam.collision.tool_mesh import (
 from cam.collision.tool_model import ToolModel, build_tool_model
 from cam.tools import Tool
 from impeller_cam.errors import InputError
+from impeller_cam.threads import run_on_threads
 
 #: Safety margin of the broad phase over fcl's own contact tolerance, mm.
 BROAD_MARGIN = 1e-4
@@ -192,16 +194,22 @@ class CollisionScene:
         }
         merged = concatenate(list(self.meshes.values()))
         origin, shape = grid_frame(merged.vertices, grid_spacing, grid_margin)
-        self.grids = {
-            role: surface_grid(
-                self.triangles[role].bvh, sample_spacing, origin, shape, grid_spacing
-            )
+        # the roles' grids and the outer grid are independent and their kernels release
+        # the GIL: built on threads (nine_blade's design scene 5.5 -> 2.9 s of wall time
+        # on 2 cores, the same grids)
+        jobs: list[Callable[[], DistanceGrid]] = [
+            partial(surface_grid, self.triangles[role].bvh, sample_spacing, origin, shape,
+                    grid_spacing)
             for role in self.roles
-        }
-        self.whole = DistanceGrid.minimum(list(self.grids.values()))
+        ]
         #: the whole scene on a coarse grid far beyond ``grid_margin`` (clearance bounds)
-        self.outer = outer_grid(np.concatenate([self.triangles[r].bvh.tris
-                                                for r in self.roles]))
+        jobs.append(partial(outer_grid, np.concatenate([self.triangles[r].bvh.tris
+                                                        for r in self.roles])))
+        built = run_on_threads(jobs, costs=[len(self.triangles[r].bvh.tris) for r in self.roles]
+                               + [sum(len(self.triangles[r].bvh.tris) for r in self.roles) / 8])
+        self.grids = dict(zip(self.roles, built[:-1], strict=True))
+        self.outer = built[-1]
+        self.whole = DistanceGrid.minimum(list(self.grids.values()))
         self.role_mask = (
             RoleMask(list(self.grids.values()), min(_MASK_LIMIT, grid_margin))
             if len(self.roles) <= 62

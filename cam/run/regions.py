@@ -53,7 +53,7 @@ from scipy.spatial import cKDTree
 from cam.run.blade_owner import splitter_points
 from cam.run.meridional import passage_position, shroud_offset
 from cam.verify.deviation import Deviation
-from cam.verify.stock import default_threads
+from impeller_cam.threads import default_threads
 
 __all__ = ["ACCEPTANCE_ROLES", "BLADE_ROLES", "LATHE_ROLES", "SPLITTER", "LabelledDesign",
            "blade_radius", "blade_top", "closest_roles", "face_groups",

@@ -58,6 +58,7 @@ from scipy.spatial import cKDTree
 
 from cam.verify.inside import MeshParity
 from impeller_cam.atomic import write_bytes_atomic
+from impeller_cam.threads import default_threads
 
 #: Points per chunk of the distance query (bounds memory).
 CHUNK = 100_000
@@ -191,7 +192,6 @@ class DesignDistance:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
         """Signed distance over ``k`` candidates, the ``k``-th centroid distance and the
         picked triangle (``geometry.mesh_query.closest_of_candidates``)."""
-        from cam.verify.stock import default_threads
         from geometry.mesh_query import closest_of_candidates
 
         # the query is split over the points: the same answers with any thread count

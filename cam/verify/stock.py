@@ -14,7 +14,6 @@ state, docs/formats.md).
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -29,6 +28,7 @@ from cam.verify.schedule import sweep_grids
 from cam.verify.toolshape import ToolShape
 from impeller_cam.atomic import write_bytes_atomic
 from impeller_cam.errors import InputError
+from impeller_cam.threads import default_threads
 
 #: Version of the saved ``.npz`` stock state.
 STATE_VERSION = 1
@@ -51,17 +51,6 @@ def _grid_frame(
     ca = origin[0] + (np.arange(n_a) + 0.5) * pitch
     cb = origin[1] + (np.arange(n_b) + 0.5) * pitch
     return origin, (n_a, n_b), ca, cb
-
-
-def default_threads() -> int:
-    """Threads for a sweep or a distance query: ``IMPELLER_CAM_THREADS`` or the CPUs this
-    process may use."""
-    env = os.environ.get("IMPELLER_CAM_THREADS", "")
-    if env.isdigit() and int(env) > 0:
-        return int(env)
-    if hasattr(os, "sched_getaffinity"):
-        return max(1, len(os.sched_getaffinity(0)))
-    return max(1, os.cpu_count() or 1)
 
 
 #: Deflate level of a saved stock: 1 writes nine_blade's finished stock (278 MB of

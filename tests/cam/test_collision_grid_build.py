@@ -4,6 +4,7 @@ reach carried from point to point; both give exactly the values of the plain bui
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import trimesh
 
 from cam.collision.broad_phase import (
@@ -13,6 +14,7 @@ from cam.collision.broad_phase import (
     surface_samples,
 )
 from cam.collision.distance_grid import DistanceGrid
+from cam.collision.scene import CollisionScene
 from cam.collision.triangle_bvh import TriangleBVH
 
 
@@ -91,3 +93,27 @@ def test_outer_grid_bounds_are_lower_bounds_and_tighter_far_out() -> None:
     # the early stop of the scan keeps its meaning: the first sphere at or below it
     stopped = fine.part_bounds(tip, axis, heights, radii, 0.0, outer=outer)
     np.testing.assert_array_equal(stopped > 0.0, both > 0.0)
+
+
+def test_the_scene_builds_the_same_grids_on_threads_as_on_one(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``CollisionScene`` builds its roles' grids and the outer grid on threads
+    (``impeller_cam.threads.run_on_threads``): the same grids as one after the other."""
+    mesh = _mesh()
+    parts = mesh.split(only_watertight=False)
+    meshes = {f"role{i}": part for i, part in enumerate([mesh, *parts[:2]])}
+    scenes = []
+    for threads in ("1", "3"):
+        monkeypatch.setenv("IMPELLER_CAM_THREADS", threads)
+        scenes.append(CollisionScene(meshes))
+    one, many = scenes
+    assert one.roles == many.roles and len(one.roles) == 3
+    for a, b in [*zip(one.grids.values(), many.grids.values(), strict=True),
+                 (one.outer, many.outer), (one.whole, many.whole)]:
+        np.testing.assert_array_equal(a.bounds, b.bounds)
+        np.testing.assert_array_equal(a.coarse, b.coarse)
+        np.testing.assert_array_equal(a.box_lo, b.box_lo)
+        np.testing.assert_array_equal(a.box_hi, b.box_hi)
+        np.testing.assert_array_equal(a.origin, b.origin)
+        assert np.isfinite(a.bounds).any()
