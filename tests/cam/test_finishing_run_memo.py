@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pytest
 
 from cam.finishing.command import run_finish
 from cam.finishing.plan_memo import PlanMemo
@@ -42,6 +43,7 @@ def _apt(folder: Path, document: dict[str, Any]) -> dict[str, bytes]:
             for op, entry in document["operations"].items()}
 
 
+@pytest.mark.slow  # two finishing runs of the small part: about 25 s of a core
 def test_a_rerun_takes_over_what_its_kept_plans_made(tmp_path: Path) -> None:
     """Kept plans: the same files from the first run's links, plots and scene; a pass
     planned anew (new objects, however alike): its operation linked again."""

@@ -31,6 +31,7 @@ NINE_BLADE = ROOT / "fixtures" / "impellers" / "nine_blade" / "spec.toml"
 COARSE: dict[str, Any] = CHAIN_SETTINGS["finish"]
 
 
+@pytest.mark.slow  # about 30 s of a core: the passes and the reach survey come first
 def test_the_small_part_on_trunnion_500_is_refused_before_planning(tmp_path: Path) -> None:
     out = tmp_path / "finish"
     with pytest.raises(InputError) as caught:
