@@ -205,8 +205,8 @@ class CollisionScene:
         #: the whole scene on a coarse grid far beyond ``grid_margin`` (clearance bounds)
         jobs.append(partial(outer_grid, np.concatenate([self.triangles[r].bvh.tris
                                                         for r in self.roles])))
-        built = run_on_threads(jobs, costs=[len(self.triangles[r].bvh.tris) for r in self.roles]
-                               + [sum(len(self.triangles[r].bvh.tris) for r in self.roles) / 8])
+        sizes = [len(self.triangles[role].bvh.tris) for role in self.roles]
+        built = run_on_threads(jobs, costs=[*sizes, sum(sizes) / 8])  # outer: 4 mm spacing
         self.grids = dict(zip(self.roles, built[:-1], strict=True))
         self.outer = built[-1]
         self.whole = DistanceGrid.minimum(list(self.grids.values()))
