@@ -37,10 +37,25 @@ def test_the_thread_count_follows_the_environment(monkeypatch: pytest.MonkeyPatc
 
 
 def test_the_costliest_jobs_start_first_and_the_results_keep_the_jobs_order() -> None:
-    started: list[int] = []
-    jobs = [lambda i=i: started.append(i) or i for i in range(5)]
-    assert run_on_threads(jobs, 2, costs=[1.0, 5.0, 2.0, 9.0, 0.5]) == [0, 1, 2, 3, 4]
-    assert sorted(started) == [0, 1, 2, 3, 4]
-    # the two costliest are taken from the queue first, so one of them starts first
-    # (which of the two is up to the threads)
-    assert started[0] in (3, 1)
+    """The cheap jobs wait until both costly ones have started: with two threads that
+    happens only if the costly two are taken first (else a thread blocks on a cheap
+    job while a costly one waits behind it in the queue, and the wait times out)."""
+    lock = threading.Lock()
+    costly_started: list[int] = []
+    both = threading.Event()
+
+    def costly(i: int) -> tuple[int, bool]:
+        with lock:
+            costly_started.append(i)
+            if len(costly_started) == 2:
+                both.set()
+        return i, True
+
+    def cheap(i: int) -> tuple[int, bool]:
+        return i, both.wait(timeout=5.0)
+
+    kinds = [cheap, costly, cheap, costly, cheap]
+    jobs = [lambda i=i, kind=kind: kind(i) for i, kind in enumerate(kinds)]
+    results = run_on_threads(jobs, 2, costs=[1.0, 5.0, 2.0, 9.0, 0.5])
+    assert results == [(i, True) for i in range(5)]
+    assert sorted(costly_started) == [1, 3]

@@ -6,7 +6,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from OCP.BRepTools import BRepTools
 
 from geometry.impeller import Impeller
 from geometry.mesh import triangulate_faces
@@ -20,7 +19,6 @@ def test_parallel_meshing_gives_the_same_triangles_as_one_thread() -> None:
     # a coarser deflection than the product's 0.02 mm keeps the test short; the edges
     # and faces are meshed by the same rules at any deflection
     one = triangulate_faces(part.solid, part.faces, 0.05, 0.25, parallel=False)
-    BRepTools.Clean_s(part.solid)
     many = triangulate_faces(part.solid, part.faces, 0.05, 0.25, parallel=True)
     assert len(one) == len(many) == len(part.faces)
     assert sum(len(t) for _, t in one) > 1000
