@@ -9,12 +9,11 @@ from typing import Any
 
 import numpy as np
 import trimesh
-from OCP.Bnd import Bnd_Box
-from OCP.BRepBndLib import BRepBndLib
 from OCP.TopoDS import TopoDS_Face, TopoDS_Solid
 
+from geometry import built_cache
 from geometry.assembly import ROLES, ImpellerSolid, build_impeller_solid
-from geometry.brep import area, volume
+from geometry.brep import area, bounding_box, volume
 from geometry.export import write_step, write_stl
 from geometry.fillet import fold_ratio
 from geometry.mesh import tessellate
@@ -68,12 +67,25 @@ class Impeller:
         return build_surfaces(self.spec)
 
     @cached_property
+    def _kept(self) -> built_cache.BuiltGeometry:
+        """This geometry's solid and meshes: built here, or taken over from an earlier
+        ``Impeller`` of the same geometry in this process (``geometry.built_cache``)."""
+        key = built_cache.geometry_key(self.spec, self.fillets)
+        found = built_cache.lookup(key)
+        if found is None:
+            start = time.perf_counter()
+            result = build_impeller_solid(self.surfaces, fillets=self.fillets)
+            found = built_cache.store(
+                key, built_cache.BuiltGeometry(result, time.perf_counter() - start))
+        return found
+
+    @cached_property
     def built(self) -> ImpellerSolid:
-        """The fused solid with roles (built on first use)."""
-        start = time.perf_counter()
-        result = build_impeller_solid(self.surfaces, fillets=self.fillets)
-        self.build_seconds = time.perf_counter() - start
-        return result
+        """The fused solid with roles (built on first use; ``build_seconds`` is the
+        build's time, also when an earlier ``Impeller`` of this geometry built it)."""
+        kept = self._kept
+        self.build_seconds = kept.seconds
+        return kept.solid
 
     @property
     def solid(self) -> TopoDS_Solid:
@@ -112,10 +124,15 @@ class Impeller:
     def _mesh(self, tolerance: float) -> tuple[trimesh.Trimesh, np.ndarray]:
         if tolerance not in self._meshes:
             part = self.built.part
-            self._meshes[tolerance] = tessellate(
-                part.solid, part.faces, part.roles, tolerance,
-                DEFAULT_TOLERANCES.tessellation_angle,
-            )
+            shared = self._kept.meshes
+            if tolerance not in shared:  # the kept copy is never handed out
+                made = tessellate(part.solid, part.faces, part.roles, tolerance,
+                                  DEFAULT_TOLERANCES.tessellation_angle)
+                shared.setdefault(tolerance, (made[0].copy(), made[1].copy()))
+                self._meshes[tolerance] = made
+            else:
+                mesh, labels = shared[tolerance]
+                self._meshes[tolerance] = (mesh.copy(), labels.copy())
         return self._meshes[tolerance]
 
     def mesh(self, role: str | None = None,
@@ -212,8 +229,7 @@ class Impeller:
                 rule_deviation_mm=float(fig.rule_deviation),
                 max_fillet_radius_mm=float(fig.max_fillet_radius),
             )
-        box = Bnd_Box()
-        BRepBndLib.AddOptimal_s(self.solid, box, False, False)
+        box = bounding_box(self.solid)  # the optimal box, B-spline faces only as needed
         out.update(
             blades=self.spec.blades,
             splitters=self.spec.splitters * self.spec.blades,
@@ -223,6 +239,6 @@ class Impeller:
                                    for t in ts), default=0.0),
             volume_mm3=volume(self.solid),
             area_mm2=area(self.solid),
-            bbox_mm=[list(box.CornerMin().Coord()), list(box.CornerMax().Coord())],
+            bbox_mm=box.tolist(),
         )
         return out

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from OCP.BRep import BRep_Tool
 from OCP.BRepBuilderAPI import (
     BRepBuilderAPI_MakeEdge,
     BRepBuilderAPI_MakeFace,
@@ -33,6 +34,7 @@ from OCP.BRepBuilderAPI import (
     BRepBuilderAPI_Transform,
 )
 from OCP.BRepLib import BRepLib
+from OCP.BRepTools import BRepTools
 from OCP.Geom import (
     Geom_BSplineCurve,
     Geom_Circle,
@@ -217,14 +219,48 @@ def rotated(faces: list[TopoDS_Face], angle: float) -> list[TopoDS_Face]:
     return out
 
 
+#: How far (mm, and in parameters) a sewn face's middle point and parameter range may
+#: be from its input face's to be taken as that face without measuring it.
+_SAME_FACE = 1e-9
+
+
+def _middle_key(face: TopoDS_Face) -> NDArray[np.float64]:
+    """``(7,)`` the surface point at the middle of a face's parameter range (mm) and
+    that range ``(u0, u1, v0, v1)``: microseconds, where ``face_signature``
+    integrates over the face."""
+    u0, u1, v0, v1 = BRepTools.UVBounds_s(face)
+    point = BRep_Tool.Surface_s(face).Value(0.5 * (u0 + u1), 0.5 * (v0 + v1))
+    return np.array([point.X(), point.Y(), point.Z(), u0, u1, v0, v1])
+
+
 def match_roles(shape: TopoDS_Shape, faces: list[TopoDS_Face], roles: list[str]) -> list[str]:
-    """Roles of the faces of a sewn shape, matched to the input faces by centroid and area."""
-    keys = np.array([face_signature(f) for f in faces])
-    tree = cKDTree(keys[:, :3])
+    """Roles of the faces of a sewn shape, matched to the input faces.
+
+    Sewing keeps the faces' surfaces: a sewn face whose middle point and parameter
+    range (``_middle_key``) are those of exactly one input face, within
+    ``_SAME_FACE``, is that face. Any other (a face whose range sewing or the solid's
+    fix changed) is matched by centroid and area (``face_signature``), as every face
+    was before; none of those close enough is an error.
+    """
+    middles = np.array([_middle_key(f) for f in faces])
+    tree = cKDTree(middles[:, :3])
+    signatures: tuple[NDArray[np.float64], cKDTree] | None = None
     out = []
     for face in faces_of(shape):
+        middle = _middle_key(face)
+        scale = _SAME_FACE * max(1.0, float(np.abs(middle).max()))
+        same = [i for i in tree.query_ball_point(middle[:3], scale)
+                if float(np.abs(middles[i, 3:] - middle[3:]).max()) <= scale]
+        if len(same) == 1:
+            out.append(roles[same[0]])
+            continue
+        if signatures is None:
+            keys = np.array([face_signature(f) for f in faces])
+            signatures = (keys, cKDTree(keys[:, :3]))
+        keys, signature_tree = signatures
         key = face_signature(face)
-        near = tree.query_ball_point(key[:3], 1e-3 * max(1.0, float(np.abs(key[:3]).max())))
+        near = signature_tree.query_ball_point(
+            key[:3], 1e-3 * max(1.0, float(np.abs(key[:3]).max())))
         err = [float(np.abs(keys[i] - key).max()) for i in near]
         if not err or min(err) > 1e-4 * max(1.0, abs(key[3])):
             raise GeometryBuildError("sewing changed a face; its role is unknown")

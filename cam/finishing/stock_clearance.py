@@ -39,6 +39,8 @@ from __future__ import annotations
 import math
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass
+from functools import cached_property
+from itertools import chain
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -147,10 +149,17 @@ class StockExcess:
     skin_voxels: int
     stock_volume: float = math.nan
 
-    @property
+    @cached_property
     def centres(self) -> Array:
-        """``(m, 3)`` voxel centres, mm."""
+        """``(m, 3)`` voxel centres, mm (computed once: the fields are not changed)."""
         return np.asarray(self.origin + (self.index + 0.5) * self.pitch)
+
+    @cached_property
+    def tree(self) -> Any:
+        """A ``scipy.spatial.cKDTree`` of ``centres``, built once for every query."""
+        from scipy.spatial import cKDTree
+
+        return cKDTree(self.centres)
 
     def summary(self) -> dict[str, Any]:
         """finish.json's ``stock`` entry (mm)."""
@@ -401,6 +410,10 @@ def stock_blocks(scene: Any, tool: Tool, tip: Array, axis: Array, index: NDArray
     return blocked
 
 
+#: Postures whose (posture, voxel) pairs ``engagement`` tests at a time.
+_ENGAGEMENT_CHUNK = 2048
+
+
 def engagement(excess: StockExcess, tool: Tool, tip: Array, axis: Array
                ) -> tuple[Array, NDArray[np.bool_]]:
     """Deepest excess material inside the cutter (ball and flutes) per posture.
@@ -421,27 +434,36 @@ def engagement(excess: StockExcess, tool: Tool, tip: Array, axis: Array
     over : (n,) bool
         The cutter meets material farther than ``excess.offset`` from the design.
     """
-    from scipy.spatial import cKDTree
-
     n = len(tip)
     depth = np.full(n, np.nan)
     if not len(excess.index) or not n:
         return depth, np.zeros(n, dtype=bool)
     radius = tool.radius
     reach = max(tool.flute_length - radius, 0.0)
+    tip = np.asarray(tip, np.float64)
+    axis = np.asarray(axis, np.float64)
     centre = tip + radius * axis
     middle = centre + 0.5 * reach * axis
-    tree = cKDTree(excess.centres)
     points = excess.centres
-    found = tree.query_ball_point(middle, math.hypot(radius, 0.5 * reach) + 1e-9)
-    for i, members in enumerate(found):
-        if not members:
+    # the voxels near each posture's cutter (the ball around the middle of its fluted
+    # length that holds the ball end and the flutes: half the length plus the radius),
+    # then the cutter's own test on all (posture, voxel) pairs of a chunk
+    bound = 0.5 * reach + radius + 1e-9
+    deepest = np.full(n, -np.inf)
+    for lo in range(0, n, _ENGAGEMENT_CHUNK):
+        hi = min(lo + _ENGAGEMENT_CHUNK, n)
+        found = excess.tree.query_ball_point(middle[lo:hi], bound, return_sorted=False)
+        counts = np.fromiter(map(len, found), np.int64, count=hi - lo)
+        if not counts.any():
             continue
-        m = np.asarray(members, dtype=np.int64)
-        rel = points[m] - centre[i]
-        along = np.clip(rel @ axis[i], 0.0, reach)
-        inside = np.linalg.norm(rel - along[:, None] * axis[i], axis=1) <= radius
-        if inside.any():
-            depth[i] = float(excess.depth[m[inside]].max())
+        members = np.fromiter(chain.from_iterable(found), np.int64, count=int(counts.sum()))
+        owner = np.repeat(np.arange(lo, hi), counts)
+        rel = points[members] - centre[owner]
+        axes = axis[owner]
+        along = np.clip(np.einsum("ij,ij->i", rel, axes), 0.0, reach)
+        inside = np.linalg.norm(rel - along[:, None] * axes, axis=1) <= radius
+        np.maximum.at(deepest, owner[inside], excess.depth[members[inside]])
+    met = np.isfinite(deepest)
+    depth[met] = deepest[met]
     over = np.isfinite(depth) & (np.nan_to_num(depth, nan=-np.inf) > excess.offset)
     return depth, over

@@ -24,6 +24,7 @@ from scipy.spatial import cKDTree
 
 from cam.collision import CollisionScene
 from cam.collision.tool_mesh import tool_geometry
+from cam.finishing import stock_clearance
 from cam.finishing.options import FinishOptions
 from cam.finishing.plan import plan_finishing
 from cam.finishing.stock_clearance import (
@@ -113,6 +114,35 @@ def test_stock_clearance_and_rapids_against_a_block() -> None:
     assert not cut.collides[0] and rapid.collides[0] and rapid.hit_role[0] == "stock"
     depth, over = engagement(excess, tool, through, axis)
     assert over[0] and depth[0] > 2.0
+
+
+def test_engagement_is_the_deepest_voxel_inside_each_cutter() -> None:
+    """``engagement`` (one tree for all postures, the pairs tested in chunks) against a
+    brute-force test of every voxel centre against every posture's cutter (ball and
+    fluted cylinder of the tool's radius): the same depths and flags, over more
+    postures than one chunk holds."""
+    rng = np.random.default_rng(11)
+    index = rng.integers(0, 80, size=(3000, 3))
+    excess = StockExcess(index, np.array([-20.0, -20.0, -5.0]), 0.5,
+                         rng.uniform(0.0, 4.0, len(index)), 2.0, len(index))
+    tool = resolve_tool("ball4_taper")
+    n = stock_clearance._ENGAGEMENT_CHUNK + 500
+    tip = rng.uniform([-20.0, -20.0, -8.0], [20.0, 20.0, 30.0], size=(n, 3))
+    axis = rng.normal(size=(n, 3))
+    axis /= np.linalg.norm(axis, axis=1)[:, None]
+    depth, over = engagement(excess, tool, tip, axis)
+    reach = tool.flute_length - tool.radius
+    centre = tip + tool.radius * axis
+    rel = excess.centres[None, :, :] - centre[:, None, :]
+    along = np.clip(np.einsum("pvk,pk->pv", rel, axis), 0.0, reach)
+    radial = np.linalg.norm(rel - along[..., None] * axis[:, None, :], axis=2)
+    inside = radial <= tool.radius
+    expected = np.where(inside.any(axis=1),
+                        np.where(inside, excess.depth[None, :], -np.inf).max(axis=1), np.nan)
+    assert 100 < np.isfinite(expected).sum() < n  # some postures meet voxels, some none
+    assert np.array_equal(np.isfinite(depth), np.isfinite(expected))
+    assert np.allclose(depth[np.isfinite(depth)], expected[np.isfinite(expected)], atol=0.0)
+    assert np.array_equal(over, np.isfinite(expected) & (np.nan_to_num(expected) > 2.0))
 
 
 def test_motion_with_ends_decides_as_without() -> None:

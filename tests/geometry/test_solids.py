@@ -372,3 +372,56 @@ def test_blade_outline_is_the_loop_with_one_segment_per_role(small: Impeller) ->
     # the suction side runs the other way in the loop
     assert np.allclose(outline[2].point(np.full(5, 0.25), v),
                        loop[4].point(np.full(5, 0.75), v), atol=1e-12)
+
+
+def test_bounding_box_is_the_optimal_box_of_the_whole_shape() -> None:
+    """``bounding_box`` (analytic faces exactly, B-spline faces only where their pole
+    box reaches out) equals ``BRepBndLib.AddOptimal`` of the whole shape: a box with a
+    B-spline sphere inside it and one standing out of it (NURBS-converted faces)."""
+    from OCP.Bnd import Bnd_Box
+    from OCP.BRepBndLib import BRepBndLib
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_NurbsConvert
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeSphere
+    from OCP.gp import gp_Pnt
+
+    from geometry.brep import bounding_box
+
+    def nurbs(shape: object) -> object:
+        return BRepBuilderAPI_NurbsConvert(shape, True).Shape()  # type: ignore[call-arg]
+
+    block = BRepPrimAPI_MakeBox(gp_Pnt(-5.0, -5.0, -5.0), 10.0, 10.0, 10.0).Shape()
+    inside = nurbs(BRepPrimAPI_MakeSphere(gp_Pnt(0.5, 0.0, 0.0), 2.0).Shape())
+    outside = nurbs(BRepPrimAPI_MakeSphere(gp_Pnt(4.0, 1.0, 2.0), 3.0).Shape())
+    shape = compound([block, inside, outside])
+    reference = Bnd_Box()
+    BRepBndLib.AddOptimal_s(shape, reference, False, False)
+    expected = np.array([reference.CornerMin().Coord(), reference.CornerMax().Coord()])
+    found = bounding_box(shape)
+    assert np.allclose(found, expected, rtol=0.0, atol=1e-9)
+    assert found[1, 0] == pytest.approx(7.0, abs=1e-6)  # the outer sphere's side
+    assert found[0, 0] == pytest.approx(-5.0, abs=1e-9)  # the block's
+
+
+def test_match_roles_by_middle_point_or_else_by_centroid_and_area() -> None:
+    """A sewn face with its input face's surface and parameter range takes that face's
+    role; one whose parametrisation changed (the same square on a plane with another
+    origin) is matched by centroid and area; one whose geometry changed is an error."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.gp import gp_Ax3, gp_Dir, gp_Pln
+
+    from geometry.brep import GeometryBuildError
+    from geometry.solids import match_roles
+
+    def square(origin: tuple[float, float, float], u: tuple[float, float],
+               v: tuple[float, float]) -> TopoDS_Face:
+        plane = gp_Pln(gp_Ax3(gp_Pnt(*origin), gp_Dir(0.0, 0.0, 1.0), gp_Dir(1.0, 0.0, 0.0)))
+        return BRepBuilderAPI_MakeFace(plane, u[0], u[1], v[0], v[1]).Face()
+
+    a = square((0.0, 0.0, 0.0), (-1.0, 1.0), (-1.0, 1.0))
+    b = square((10.0, 0.0, 0.0), (-1.0, 2.0), (-1.0, 1.0))
+    moved = square((5.0, 0.0, 0.0), (-6.0, -4.0), (-1.0, 1.0))  # a, parametrised anew
+    assert match_roles(compound([b, a]), [a, b], ["a", "b"]) == ["b", "a"]
+    assert match_roles(compound([moved, b]), [a, b], ["a", "b"]) == ["a", "b"]
+    smaller = square((0.0, 0.0, 0.0), (-1.0, 0.5), (-1.0, 1.0))
+    with pytest.raises(GeometryBuildError, match="sewing changed a face"):
+        match_roles(compound([smaller, b]), [a, b], ["a", "b"])

@@ -1,0 +1,108 @@
+"""The solids and meshes this process has built, kept for the next ``Impeller`` of
+the same geometry.
+
+The chain builds one design in four stages (geometry, roughing's design meshes, the
+finish stage's rough verification and finishing, the verify stage's labelled
+design): each ``Impeller.from_spec`` is a new object that built its solid and
+meshed it again, the same solid and the same triangles every time (the build and the
+tessellation are deterministic). Here the last ``SIZE`` geometries' solids and
+meshes are kept, keyed by a digest of everything the solid is made from
+(``geometry_key``), so a second ``Impeller`` of the same geometry takes them over.
+
+What is handed out is never changed by the code that receives it: the solid (OCC
+shapes are shared handles; a tessellation cleans the faces' triangulation first,
+``geometry.mesh.triangulate_faces``) and, per ``Impeller``, its own copy of each
+mesh (the cache keeps a private copy), so a caller that changes its mesh changes
+nothing of another's.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import threading
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from geometry.assembly import ImpellerSolid
+    from geometry.spec import ImpellerSpec
+
+__all__ = ["SIZE", "BuiltGeometry", "clear", "geometry_key", "lookup", "store"]
+
+#: Geometries kept (the most recently used): a chain needs one, a sweep's worker one
+#: at a time.
+SIZE = 2
+#: Fields of ``ImpellerSpec`` the solid does not depend on.
+_NOT_GEOMETRY = frozenset({"name", "source", "machining"})
+
+_lock = threading.Lock()
+_kept: OrderedDict[str, BuiltGeometry] = OrderedDict()
+
+
+@dataclass
+class BuiltGeometry:
+    """A built solid, how long it took (s), and its meshes per tolerance (mm)."""
+
+    solid: ImpellerSolid
+    seconds: float
+    meshes: dict[float, tuple[Any, np.ndarray]] = field(default_factory=dict)
+
+
+def geometry_key(spec: ImpellerSpec, fillets: bool) -> str:
+    """Digest of every field of ``spec`` the solid is built from, and ``fillets``.
+
+    Parameters
+    ----------
+    spec : ImpellerSpec
+    fillets : bool
+        Whether the blade-to-hub fillets are built.
+
+    Returns
+    -------
+    str
+        Hex digest: equal for two specs that give the same solid.
+    """
+    digest = hashlib.blake2b(digest_size=20)
+    digest.update(repr(bool(fillets)).encode())
+    for item in dataclasses.fields(spec):
+        if item.name in _NOT_GEOMETRY:
+            continue
+        value = getattr(spec, item.name)
+        digest.update(item.name.encode())
+        if isinstance(value, np.ndarray):
+            array = np.ascontiguousarray(value)
+            digest.update(f"{array.dtype.str}{array.shape}".encode())
+            digest.update(array.tobytes())
+        else:
+            digest.update(repr(value).encode())
+    return digest.hexdigest()
+
+
+def lookup(key: str) -> BuiltGeometry | None:
+    """The kept geometry of ``key`` (now the most recently used), else None."""
+    with _lock:
+        found = _kept.get(key)
+        if found is not None:
+            _kept.move_to_end(key)
+        return found
+
+
+def store(key: str, built: BuiltGeometry) -> BuiltGeometry:
+    """Keep ``built`` under ``key`` (the oldest beyond ``SIZE`` dropped); the one kept
+    (an equal one another thread stored first wins)."""
+    with _lock:
+        kept = _kept.setdefault(key, built)
+        _kept.move_to_end(key)
+        while len(_kept) > SIZE:
+            _kept.popitem(last=False)
+        return kept
+
+
+def clear() -> None:
+    """Forget every kept geometry (a benchmark timing builds, a test of a fresh one)."""
+    with _lock:
+        _kept.clear()
