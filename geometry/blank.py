@@ -259,8 +259,17 @@ def spec_blank_profile(spec: ImpellerSpec, surfaces: ImpellerSurfaces | None = N
     Returns
     -------
     (k, 2) float64
-        Closed meridional polygon ``(r, z)``, mm.
+        Closed meridional polygon ``(r, z)``, mm (made once per geometry in a
+        process, ``geometry.built_cache.derived``; a copy).
     """
+    from geometry.built_cache import derived
+
+    return derived(spec, "blank_profile", lambda: _spec_blank_profile(spec, surfaces))
+
+
+def _spec_blank_profile(spec: ImpellerSpec, surfaces: ImpellerSurfaces | None
+                        ) -> NDArray[np.float64]:
+    """``spec_blank_profile``, made (not kept)."""
     from geometry.blank_envelope import blade_points, dilated_top
     from geometry.surfaces import build_surfaces
 

@@ -8,6 +8,9 @@ meshed it again, the same solid and the same triangles every time (the build and
 tessellation are deterministic). Here the last ``SIZE`` geometries' solids and
 meshes are kept, keyed by a digest of everything the solid is made from
 (``geometry_key``), so a second ``Impeller`` of the same geometry takes them over.
+Figures made from the spec alone that several stages ask for (the turned blank's
+profile: 0.7-2.5 s, asked for by roughing twice, the finish stage's and the verify
+stage's blank) are kept the same way (``derived``).
 
 What is handed out is never changed by the code that receives it: the solid (OCC
 shapes are shared handles; a tessellation cleans the faces' triangulation first,
@@ -22,6 +25,7 @@ import dataclasses
 import hashlib
 import threading
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -31,7 +35,7 @@ if TYPE_CHECKING:
     from geometry.assembly import ImpellerSolid
     from geometry.spec import ImpellerSpec
 
-__all__ = ["SIZE", "BuiltGeometry", "clear", "geometry_key", "lookup", "store"]
+__all__ = ["SIZE", "BuiltGeometry", "clear", "derived", "geometry_key", "lookup", "store"]
 
 #: Geometries kept (the most recently used): a chain needs one, a sweep's worker one
 #: at a time.
@@ -41,6 +45,10 @@ _NOT_GEOMETRY = frozenset({"name", "source", "machining"})
 
 _lock = threading.Lock()
 _kept: OrderedDict[str, BuiltGeometry] = OrderedDict()
+#: Other figures of a spec (``derived``), by (geometry key, name).
+_derived: OrderedDict[tuple[str, str], np.ndarray] = OrderedDict()
+#: Figures kept by ``derived``.
+DERIVED_SIZE = 8
 
 
 @dataclass
@@ -102,7 +110,41 @@ def store(key: str, built: BuiltGeometry) -> BuiltGeometry:
         return kept
 
 
+def derived(spec: ImpellerSpec, name: str, make: Callable[[], np.ndarray]) -> np.ndarray:
+    """A figure of ``spec``'s geometry (an array), made once per geometry and name.
+
+    Parameters
+    ----------
+    spec : ImpellerSpec
+    name : str
+        What the figure is (e.g. ``"blank_profile"``); ``make`` must depend on
+        nothing but the fields ``geometry_key`` digests.
+    make : callable
+        Makes the figure.
+
+    Returns
+    -------
+    numpy.ndarray
+        A copy of the kept figure: the caller may change it.
+    """
+    key = (geometry_key(spec, True), name)
+    with _lock:
+        found = _derived.get(key)
+        if found is not None:
+            _derived.move_to_end(key)
+    if found is None:
+        made = np.array(make(), copy=True)
+        with _lock:
+            found = _derived.setdefault(key, made)
+            _derived.move_to_end(key)
+            while len(_derived) > DERIVED_SIZE:
+                _derived.popitem(last=False)
+    return np.array(found, copy=True)
+
+
 def clear() -> None:
-    """Forget every kept geometry (a benchmark timing builds, a test of a fresh one)."""
+    """Forget every kept geometry and figure (a benchmark timing builds, a test of a
+    fresh one)."""
     with _lock:
         _kept.clear()
+        _derived.clear()

@@ -52,3 +52,16 @@ def test_the_oldest_geometry_is_dropped() -> None:
     assert built_cache.store("k1", built_cache.BuiltGeometry(object(), 2.0)) is entries[1]  # type: ignore[arg-type]
     built_cache.clear()
     assert built_cache.lookup("k1") is None
+
+
+def test_the_blank_profile_is_made_once_per_geometry_and_handed_out_as_a_copy() -> None:
+    from geometry.blank import _spec_blank_profile, spec_blank_profile
+
+    spec = load_spec(SMALL)
+    made = _spec_blank_profile(spec, None)
+    first = spec_blank_profile(spec)
+    assert np.array_equal(first, made)
+    first[:] = 0.0  # the caller's copy
+    assert np.array_equal(spec_blank_profile(replace(spec, name="again")), made)
+    more = replace(spec, stock_allowance=spec.stock_allowance + 1.0)
+    assert not np.array_equal(spec_blank_profile(more), made)
