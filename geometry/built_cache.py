@@ -44,11 +44,39 @@ SIZE = 2
 _NOT_GEOMETRY = frozenset({"name", "source", "machining"})
 
 _lock = threading.Lock()
-_kept: OrderedDict[str, BuiltGeometry] = OrderedDict()
-#: Other figures of a spec (``derived``), by (geometry key, name).
-_derived: OrderedDict[tuple[str, str], np.ndarray] = OrderedDict()
+
+
+class _Recent(OrderedDict):  # type: ignore[type-arg]
+    """The ``size`` most recently used entries (under ``_lock``)."""
+
+    def __init__(self, size: int) -> None:
+        super().__init__()
+        self.size = size
+
+    def get_used(self, key: Any) -> Any:
+        """The entry of ``key`` (now the most recently used), else None."""
+        with _lock:
+            found = self.get(key)
+            if found is not None:
+                self.move_to_end(key)
+            return found
+
+    def keep(self, key: Any, value: Any) -> Any:
+        """Keep ``value`` (the oldest beyond ``size`` dropped); the one kept (an equal
+        one another thread kept first wins)."""
+        with _lock:
+            kept = self.setdefault(key, value)
+            self.move_to_end(key)
+            while len(self) > self.size:
+                self.popitem(last=False)
+            return kept
+
+
 #: Figures kept by ``derived``.
 DERIVED_SIZE = 8
+_kept = _Recent(SIZE)
+#: Other figures of a spec (``derived``), by (geometry key, name).
+_derived = _Recent(DERIVED_SIZE)
 
 
 @dataclass
@@ -92,22 +120,15 @@ def geometry_key(spec: ImpellerSpec, fillets: bool) -> str:
 
 def lookup(key: str) -> BuiltGeometry | None:
     """The kept geometry of ``key`` (now the most recently used), else None."""
-    with _lock:
-        found = _kept.get(key)
-        if found is not None:
-            _kept.move_to_end(key)
-        return found
+    found: BuiltGeometry | None = _kept.get_used(key)
+    return found
 
 
 def store(key: str, built: BuiltGeometry) -> BuiltGeometry:
     """Keep ``built`` under ``key`` (the oldest beyond ``SIZE`` dropped); the one kept
     (an equal one another thread stored first wins)."""
-    with _lock:
-        kept = _kept.setdefault(key, built)
-        _kept.move_to_end(key)
-        while len(_kept) > SIZE:
-            _kept.popitem(last=False)
-        return kept
+    kept: BuiltGeometry = _kept.keep(key, built)
+    return kept
 
 
 def derived(spec: ImpellerSpec, name: str, make: Callable[[], np.ndarray]) -> np.ndarray:
@@ -128,17 +149,9 @@ def derived(spec: ImpellerSpec, name: str, make: Callable[[], np.ndarray]) -> np
         A copy of the kept figure: the caller may change it.
     """
     key = (geometry_key(spec, True), name)
-    with _lock:
-        found = _derived.get(key)
-        if found is not None:
-            _derived.move_to_end(key)
+    found = _derived.get_used(key)
     if found is None:
-        made = np.array(make(), copy=True)
-        with _lock:
-            found = _derived.setdefault(key, made)
-            _derived.move_to_end(key)
-            while len(_derived) > DERIVED_SIZE:
-                _derived.popitem(last=False)
+        found = _derived.keep(key, np.array(make(), copy=True))
     return np.array(found, copy=True)
 
 
