@@ -69,9 +69,20 @@ class CamberCurve:
 
     def derivative(self, u: ArrayLike) -> NDArray[np.float64]:
         """``(..., 3)`` dP/du in cartesian coordinates, mm per unit u."""
+        return self.point_and_derivative(u)[1]
+
+    def point_and_derivative(self, u: ArrayLike) -> tuple[NDArray[np.float64],
+                                                          NDArray[np.float64]]:
+        """``(P(u), dP/du)``, each ``(..., 3)`` cartesian (mm, mm per unit u): the
+        values of ``__call__`` and ``derivative`` from one evaluation of the spline."""
         u = np.asarray(u, dtype=np.float64)
         c = self._spline(u)
-        d = self._d1(u)
+        return cylindrical_to_cartesian(c), self._cartesian_derivative(c, self._d1(u))
+
+    @staticmethod
+    def _cartesian_derivative(c: NDArray[np.float64], d: NDArray[np.float64]
+                              ) -> NDArray[np.float64]:
+        """dP/du ``(..., 3)`` from the cylindrical point ``c`` and its derivative ``d``."""
         r, theta = c[..., 0], c[..., 1]
         dr, dtheta, dz = d[..., 0], d[..., 1], d[..., 2]
         cos, sin = np.cos(theta), np.sin(theta)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -105,10 +106,18 @@ class ImpellerSpec:
             Thickness, mm.
         """
         u = np.asarray(u, dtype=np.float64)
-        if len(self.thickness_u) == 1 or np.all(self.thickness_mm == self.thickness_mm[0]):
+        law = self._thickness_law
+        if law is None:
             return np.full(u.shape, float(self.thickness_mm[0]))
-        law = PchipInterpolator(self.thickness_u, self.thickness_mm, extrapolate=True)
         return np.asarray(law(np.clip(u, self.thickness_u[0], self.thickness_u[-1])))
+
+    @cached_property
+    def _thickness_law(self) -> PchipInterpolator | None:
+        """The PCHIP of the thickness knots, made at the first ``thickness`` call (the
+        blade's evaluation asks for it at every point); ``None``: constant thickness."""
+        if len(self.thickness_u) == 1 or np.all(self.thickness_mm == self.thickness_mm[0]):
+            return None
+        return PchipInterpolator(self.thickness_u, self.thickness_mm, extrapolate=True)
 
 
 def _short(value: Any, limit: int = 60) -> str:

@@ -99,19 +99,29 @@ class BladeSurface:
     def _raw_derivatives(
         self, u: NDArray[np.float64], v: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return self._raw_point_and_derivatives(u, v)[1:]
+
+    def _raw_point_and_derivatives(
+        self, u: NDArray[np.float64], v: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """``(R, R_u, R_v)`` unrotated, each ``(..., 3)``: ``_raw_camber`` and
+        ``_raw_derivatives`` from one evaluation of each camber curve."""
         uc = self._curve_u(u)
         scale = 1.0 - self.u_start
-        p, q = self.shroud_curve(uc), self.hub_curve(uc)
-        dp, dq = self.shroud_curve.derivative(uc), self.hub_curve.derivative(uc)
+        p, dp = self.shroud_curve.point_and_derivative(uc)
+        q, dq = self.hub_curve.point_and_derivative(uc)
         v = v[..., None]
+        r = (1.0 - v) * p + v * q
         r_u = ((1.0 - v) * dp + v * dq) * scale
         r_v = q - p
         if self.midspan_curve is not None:
-            bulge = self.midspan_curve(uc) - 0.5 * (p + q)
-            dbulge = self.midspan_curve.derivative(uc) - 0.5 * (dp + dq)
+            m, dm = self.midspan_curve.point_and_derivative(uc)
+            bulge = m - 0.5 * (p + q)
+            dbulge = dm - 0.5 * (dp + dq)
+            r = r + 4.0 * v * (1.0 - v) * bulge
             r_u = r_u + 4.0 * v * (1.0 - v) * dbulge * scale
             r_v = r_v + (4.0 - 8.0 * v) * bulge
-        return np.asarray(r_u), np.asarray(r_v)
+        return np.asarray(r), np.asarray(r_u), np.asarray(r_v)
 
     def _rotate(self, vectors: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.asarray(vectors @ self.rotation.T)
@@ -143,7 +153,9 @@ class BladeSurface:
         """Pressure (``side=+1``) or suction (``side=-1``) surface ``R + side d/2 N``."""
         u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
         half = 0.5 * side * self.thickness(u)[..., None]
-        return np.asarray(self.camber(u, v) + half * self.normal(u, v))
+        r, r_u, r_v = self._raw_point_and_derivatives(u, v)
+        normal = _unit(self._orientation * np.cross(self._rotate(r_u), self._rotate(r_v)))
+        return np.asarray(self._rotate(r) + half * normal)
 
     def pressure(self, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
         """Pressure surface ``R + d/2 N``, ``(..., 3)``."""

@@ -30,6 +30,9 @@ from geometry.surfaces import ImpellerSurfaces
 
 __all__ = ["Blank"]
 
+#: Cells of ``Blank.touches``'s screen along the profile's longer side.
+SCREEN_CELLS = 256
+
 
 @njit(cache=True, nogil=True)
 def _edge_gap2(qr: float, qz: float, ar: float, az: float, dr: float, dz: float) -> float:
@@ -84,19 +87,47 @@ def _profile_distance(points: NDArray[np.float64], profile: NDArray[np.float64]
 
 
 @njit(cache=True, nogil=True)
+def _cell_screen(profile: NDArray[np.float64], origin: NDArray[np.float64], size: float,
+                 shape: tuple[int, int]) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+    """Per cell of a (r, z) grid (``origin`` its lowest corner, square cells of side
+    ``size`` mm, ``shape`` cells): whether its centre lies inside the closed
+    ``profile``, and a lower bound of the distance of every point of the cell to the
+    profile's boundary (the centre's distance less the half diagonal and 1e-9 mm;
+    negative where the boundary may cross the cell), mm."""
+    inside = np.empty(shape, dtype=np.bool_)
+    clear = np.empty(shape)
+    half = 0.5 * math.sqrt(2.0) * size + 1e-9
+    for i in range(shape[0]):
+        for j in range(shape[1]):
+            qr, qz = origin[0] + (i + 0.5) * size, origin[1] + (j + 0.5) * size
+            inside[i, j] = _inside(qr, qz, profile)
+            clear[i, j] = _nearest(qr, qz, profile, -np.inf) - half
+    return inside, clear
+
+
+@njit(cache=True, nogil=True)
 def _profile_touches(points: NDArray[np.float64], profile: NDArray[np.float64],
-                     radius: float) -> NDArray[np.bool_]:
+                     radius: float, origin: NDArray[np.float64], size: float,
+                     cell_inside: NDArray[np.bool_], cell_clear: NDArray[np.float64]
+                     ) -> NDArray[np.bool_]:
     """``_profile_distance(points) < radius`` (``<= 0`` for ``radius`` 0) without
-    computing every distance: the bounding box, then the first edge closer than
+    computing every distance: the bounding box, then the point's cell of the screen
+    (``_cell_screen``: a cell whose every point lies farther than ``radius`` from the
+    boundary answers with its centre's side), then the first edge closer than
     ``radius``, decide."""
     out = np.empty(points.shape[0], dtype=np.bool_)
     rmin, rmax = profile[:, 0].min(), profile[:, 0].max()
     zmin, zmax = profile[:, 1].min(), profile[:, 1].max()
     far = max(radius, 0.0) + 1e-9  # a bounding-box gap beyond this decides "no"
+    ni, nj = cell_clear.shape
     for i in range(points.shape[0]):
         qr, qz = np.hypot(points[i, 0], points[i, 1]), points[i, 2]
+        ci = int(math.floor((qr - origin[0]) / size))
+        cj = int(math.floor((qz - origin[1]) / size))
         if qr - rmax > far or rmin - qr > far or qz - zmax > far or zmin - qz > far:
             out[i] = False
+        elif 0 <= ci < ni and 0 <= cj < nj and cell_clear[ci, cj] > far:
+            out[i] = cell_inside[ci, cj]
         elif radius > 0.0:
             out[i] = _nearest(qr, qz, profile, radius) < radius or _inside(qr, qz, profile)
         else:
@@ -116,12 +147,30 @@ class Blank:
     """
 
     def __init__(self, surfaces: ImpellerSurfaces) -> None:
-        profile = spec_blank_profile(surfaces.spec, surfaces)
+        self._take(spec_blank_profile(surfaces.spec, surfaces))
+
+    @classmethod
+    def of_profile(cls, profile: NDArray[np.float64]) -> Blank:
+        """The blank of a meridional polygon ``(k, 2)`` (r, z), mm (closed here when
+        its last point is not its first)."""
+        blank = object.__new__(cls)
+        blank._take(np.asarray(profile, dtype=np.float64))
+        return blank
+
+    def _take(self, profile: NDArray[np.float64]) -> None:
         if np.linalg.norm(profile[0] - profile[-1]) > 1e-9:
             profile = np.vstack([profile, profile[:1]])
-        self.profile = profile
+        self.profile = np.ascontiguousarray(profile)
         self.z_top = float(profile[:, 1].max())
         self.r_out = float(profile[:, 0].max())
+        # the cell screen of ``touches`` (``_cell_screen``): SCREEN_CELLS cells along
+        # the profile's longer side
+        lo, hi = profile.min(axis=0), profile.max(axis=0)
+        self._cell = float(max(hi - lo)) / SCREEN_CELLS
+        self._origin = np.ascontiguousarray(lo - self._cell)
+        shape = tuple(int(n) for n in np.ceil((hi - lo) / self._cell).astype(np.int64) + 2)
+        self._cell_inside, self._cell_clear = _cell_screen(
+            self.profile, self._origin, self._cell, (shape[0], shape[1]))
 
     def distance(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
         """Distance ``(n,)`` of W points ``(n, 3)`` to the blank, mm (0 inside)."""
@@ -133,7 +182,8 @@ class Blank:
         (its centre inside, or within ``radius`` of the boundary)."""
         c = np.asarray(centres, dtype=np.float64)
         flat = np.ascontiguousarray(c.reshape(-1, 3))
-        hit = _profile_touches(flat, self.profile, float(radius))
+        hit = _profile_touches(flat, self.profile, float(radius), self._origin, self._cell,
+                               self._cell_inside, self._cell_clear)
         return np.asarray(hit.reshape(c.shape[:-1]))
 
     def closed_mesh(self, sections: int = 180) -> trimesh.Trimesh:

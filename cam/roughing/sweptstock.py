@@ -132,13 +132,18 @@ class SweptStock:
         """Whether balls of radius R + clearance at ``centres`` ``(n, 3)`` hold no stock
         before run ``before`` (module docstring)."""
         c = np.asarray(centres, dtype=np.float64).reshape(-1, 3)
-        probe = c[:, None] + self.probe_radius * np.concatenate(
-            [np.zeros((1, 3)), SPHERE])[None]
-        flat = probe.reshape(-1, 3)
-        ok = ~self.blank.touches(flat, self.margin)
-        rest = np.flatnonzero(~ok)
-        ok[rest] = self._removed(flat[rest], before, self.radius - self.margin)
-        inside = np.asarray(ok.reshape(probe.shape[:2]).all(axis=1), dtype=bool)
+        # a centre farther than R + clearance + m from the blank: every tested point
+        # of its ball is at least m outside it
+        inside = ~self.blank.touches(c, self.probe_radius + self.margin + 1e-9)
+        near = np.flatnonzero(~inside)
+        if len(near):
+            probe = c[near, None] + self.probe_radius * np.concatenate(
+                [np.zeros((1, 3)), SPHERE])[None]
+            flat = probe.reshape(-1, 3)
+            ok = ~self.blank.touches(flat, self.margin)
+            rest = np.flatnonzero(~ok)
+            ok[rest] = self._removed(flat[rest], before, self.radius - self.margin)
+            inside[near] = ok.reshape(probe.shape[:2]).all(axis=1)
         for i in np.flatnonzero(~inside).tolist():
             inside[i] = self._on_a_column(c[i], before)
         return np.asarray(inside)
@@ -161,12 +166,19 @@ class SweptStock:
         prefix = int(np.searchsorted(self.labels, before, side="left"))
         if self.tree is None or prefix == 0 or within <= 0.0 or not len(points):
             return ok
-        d, idx = self.tree.query(points, k=8, distance_upper_bound=within)
-        found = np.isfinite(d)
-        ok[:] = (found & (idx < prefix)).any(axis=1)
-        # all 8 nearest within reach but from later runs: look at every sample
-        for i in np.flatnonzero(found.all(axis=1) & ~ok).tolist():
-            near = self.tree.query_ball_point(points[i], within)
+        # the nearest samples within reach, 8 then 64: a point is decided when one of
+        # them is from an earlier run, or when fewer than k lie within reach
+        open_ = np.arange(len(points))
+        for k in (8, 64):
+            d, idx = self.tree.query(points[open_], k=k, distance_upper_bound=within)
+            found = np.isfinite(d)
+            ok[open_] = (found & (idx < prefix)).any(axis=1)
+            open_ = open_[found.all(axis=1) & ~ok[open_]]
+            if not len(open_):
+                return ok
+        # more than 64 samples within reach, all from later runs: look at every sample
+        for i, near in zip(open_.tolist(), self.tree.query_ball_point(points[open_], within),
+                           strict=True):
             ok[i] = bool(near) and min(near) < prefix
         return ok
 

@@ -15,9 +15,8 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def _rectangle_blank() -> Blank:
     """A ring blank: r in [4, 10], z in [0, 5] (a bore of radius 4)."""
-    blank = object.__new__(Blank)
-    blank.profile = np.array([[4.0, 0.0], [10.0, 0.0], [10.0, 5.0], [4.0, 5.0], [4.0, 0.0]])
-    blank.z_top, blank.r_out = 5.0, 10.0
+    blank = Blank.of_profile(np.array([[4.0, 0.0], [10.0, 0.0], [10.0, 5.0], [4.0, 5.0]]))
+    assert (blank.z_top, blank.r_out) == (5.0, 10.0)
     return blank
 
 
@@ -74,10 +73,11 @@ def test_same_solid_as_the_verification_stock() -> None:
 
 
 def test_touches_is_the_distance_compared_with_the_radius_on_a_real_blank() -> None:
-    """``touches`` (early exits: bounding box, first edge within the radius) answers
-    exactly ``distance < radius`` (``<= 0`` for radius 0), and ``distance`` is the
-    brute-force closest-edge distance outside and 0 inside (seeded points around the
-    nine_blade blank, on its vertices too)."""
+    """``touches`` (early exits: bounding box, the cell screen, first edge within the
+    radius) answers exactly ``distance < radius`` (``<= 0`` for radius 0), and
+    ``distance`` is the brute-force closest-edge distance outside and 0 inside (seeded
+    points around the nine_blade blank, on its vertices and within a cell or two of
+    its boundary too, where the screen must not decide)."""
     from geometry.spec import load_spec
     from geometry.surfaces import build_surfaces
 
@@ -88,7 +88,14 @@ def test_touches_is_the_distance_compared_with_the_radius_on_a_real_blank() -> N
     ang = rng.uniform(0.0, 2.0 * math.pi, len(blank.profile))
     on = np.column_stack([blank.profile[:, 0] * np.cos(ang), blank.profile[:, 0] * np.sin(ang),
                           blank.profile[:, 1]])
-    pts = np.vstack([rng.uniform(lo, hi, (4000, 3)), on])
+    # along the edges, up to two screen cells off them either way
+    k = rng.integers(0, len(blank.profile) - 1, 4000)
+    along = blank.profile[k] + rng.uniform(0, 1, (4000, 1)) * (blank.profile[k + 1]
+                                                                - blank.profile[k])
+    along += rng.uniform(-2.0, 2.0, (4000, 2)) * blank._cell
+    ang = rng.uniform(0.0, 2.0 * math.pi, 4000)
+    near = np.column_stack([along[:, 0] * np.cos(ang), along[:, 0] * np.sin(ang), along[:, 1]])
+    pts = np.vstack([rng.uniform(lo, hi, (4000, 3)), on, near])
     d = blank.distance(pts)
     rz = np.column_stack([np.hypot(pts[:, 0], pts[:, 1]), pts[:, 2]])
     a, b = blank.profile[:-1], blank.profile[1:]
@@ -98,6 +105,8 @@ def test_touches_is_the_distance_compared_with_the_radius_on_a_real_blank() -> N
     outside = d > 0.0
     assert outside.any() and (~outside).any()
     assert np.allclose(d[outside], gap[outside], rtol=0.0, atol=1e-9)
-    for radius in (0.0, 0.5, 3.0, 5.0):
+    for radius in (0.0, 0.05, 0.5, 3.0, 5.0):
         want = d < radius if radius > 0.0 else d <= 0.0
         assert np.array_equal(blank.touches(pts, radius), want)
+    # the screen decides most cells: those a cell's half diagonal clear of the boundary
+    assert (blank._cell_clear > 0.5).mean() > 0.5

@@ -453,6 +453,30 @@ def test_swept_stock_a_ball_grazing_the_wall_of_its_groove_is_not_in_air() -> No
     assert not swept.air(np.array([[10.0, 0.03, 6.0]]), before=1)[0]
 
 
+def test_swept_stock_removed_is_an_earlier_sample_within_reach() -> None:
+    """``_removed`` (the nearest 8, then 64 samples, then every sample within reach)
+    answers exactly whether a sample of a run labelled below ``before`` lies within
+    reach: brute force over every sample, on twelve runs packed 0.2 mm apart so that
+    a point near the later runs has more than 64 samples within reach, all of them
+    later than ``before``."""
+    from cam.roughing.sweptstock import SweptStock
+
+    rng = np.random.default_rng(5)
+    axes = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])
+    runs = [np.array([[0.0, 0.2 * k, 0.0], [10.0, 0.2 * k, 0.0]]) for k in range(12)]
+    swept = SweptStock(_BoxBlank(), 2.0, 6.0, runs, [axes] * 12)  # type: ignore[arg-type]
+    points = rng.uniform([-1.0, -2.0, -2.0], [11.0, 4.5, 8.0], (3000, 3))
+    gap = np.linalg.norm(points[:, None] - swept.points[None], axis=-1)
+    crowded = 0
+    for before in (0, 1, 4, 11, 12):
+        for within in (0.7, 1.9):
+            prefix = swept.labels < before
+            want = (gap[:, prefix] < within).any(axis=1)
+            assert np.array_equal(swept._removed(points, before, within), want)
+            crowded += int(((gap[:, ~prefix] < within).sum(axis=1) > 64).sum())
+    assert crowded > 100  # the last step (every sample) was taken
+
+
 def test_swept_stock_sphere_points_cover_the_sphere() -> None:
     """Every unit vector lies within SPHERE_COVER of a SPHERE point (2e5 random ones)."""
     from scipy.spatial import cKDTree

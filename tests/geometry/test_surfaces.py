@@ -153,3 +153,30 @@ def test_midspan_line_makes_a_non_ruled_blade(tmp_path: Path) -> None:
     assert np.abs(blade.camber(nodes, 0.5) - mid).max() < 1e-6
     ruled = 0.5 * (blade.camber(nodes, 0.0) + blade.camber(nodes, 1.0))
     assert np.linalg.norm(blade.camber(nodes, 0.5) - ruled, axis=1).max() > 0.5
+
+
+@pytest.mark.parametrize("midspan", [False, True])
+def test_side_is_the_camber_point_plus_half_the_thickness_along_the_normal(
+        tmp_path: Path, midspan: bool) -> None:
+    """``side`` evaluates each camber line once for the point and the normal; it gives
+    ``camber + side d/2 normal`` to the bit, on a main blade and a splitter (its own u),
+    ruled and with a mid-span line, and ``point_and_derivative`` gives ``__call__`` and
+    ``derivative``."""
+    path = write_synthetic_spec(
+        tmp_path, midspan=midspan,
+        thickness="thickness = { u = [0.0, 0.4, 1.0], mm = [1.0, 2.6, 1.4] }")
+    surfaces = build_surfaces(load_spec(path))
+    rng = np.random.default_rng(11)
+    u, v = rng.uniform(-0.05, 1.05, 300), rng.uniform(-0.1, 1.1, 300)
+    blade = surfaces.blades[1]
+    splitter = type(blade)(blade.shroud_curve, blade.hub_curve, blade._thickness,
+                           angle=0.3, u_start=0.35, midspan=blade.midspan_curve)
+    for b in (blade, splitter):
+        assert (b.midspan_curve is not None) == midspan
+        for side in (1, -1):
+            half = 0.5 * side * b.thickness(u)[:, None]
+            assert np.array_equal(b.side(u, v, side), b.camber(u, v) + half * b.normal(u, v))
+        assert np.array_equal(b.side(0.3, 0.6, 1), b.side(np.array([0.3]), 0.6, 1)[0])
+    curve = blade.shroud_curve
+    point, slope = curve.point_and_derivative(u)
+    assert np.array_equal(point, curve(u)) and np.array_equal(slope, curve.derivative(u))
