@@ -87,10 +87,9 @@ def _fd_normal(
     return np.asarray(n * np.where(sign == 0, 1.0, sign)[..., None])
 
 
-def _tangent(blade: BladeSurface, u: Array, v: Array) -> Array:
-    """Unit camber tangent at (u, v), orthogonal to N, pointing towards +u."""
-    r_u, _ = blade.camber_derivatives(u, v)
-    n = blade.normal(u, v)
+def _tangent(r_u: Array, n: Array) -> Array:
+    """Unit camber tangent, orthogonal to N, pointing towards +u, from the camber's
+    u-derivative ``r_u`` and normal ``n`` at (u, v) (``BladeSurface.camber_frame``)."""
     t = r_u - np.einsum("...i,...i->...", r_u, n)[..., None] * n
     return _unit(t)
 
@@ -147,8 +146,11 @@ def _side_direction(blade: BladeSurface, u: float, v: Array, side: int, sign: fl
     """Unit tangent of a side's u-line at ``u``, towards ``sign * u`` (one-sided, 2nd order)."""
     uu = np.full(np.shape(v), u)
     h = -sign * 1e-5
-    d = (3.0 * blade.side(uu, v, side) - 4.0 * blade.side(uu + h, v, side)
-         + blade.side(uu + 2.0 * h, v, side))
+    if uu.ndim:  # one stacked evaluation
+        at = list(blade.side(np.stack([uu, uu + h, uu + 2.0 * h]), np.stack([v, v, v]), side))
+    else:  # a 0-d point keeps its own (vector-matrix) rotations, to the bit
+        at = [blade.side(uu + k * h, v, side) for k in (0.0, 1.0, 2.0)]
+    d = 3.0 * at[0] - 4.0 * at[1] + at[2]
     return _unit(d)
 
 
@@ -169,10 +171,11 @@ def _cap(blade: BladeSurface, u: float, role: str) -> OutlineSegment:
     def terms(v: Array) -> tuple[Array, ...]:
         """The v-dependent parts: camber point, N, T_out and the corrections a_0, a_1."""
         uu = np.full(np.shape(v), u)
-        n, t = blade.normal(uu, v), out * _tangent(blade, uu, v)
+        r, r_u, n = blade.camber_frame(uu, v)
+        t = out * _tangent(r_u, n)
         a0 = speed * (_side_direction(blade, u, v, +1, out) - t)
         a1 = speed * (-_side_direction(blade, u, v, -1, out) + t)
-        return blade.camber(uu, v), n, t, a0, a1
+        return r, n, t, a0, a1
 
     def combine(p: Array, parts: tuple[Array, ...]) -> Array:
         r, n, t, a0, a1 = parts
@@ -241,10 +244,11 @@ def _cut(blade: BladeSurface, u: float, role: str, u_b: float) -> list[OutlineSe
 
     def terms(v: Array) -> tuple[Array, ...]:
         uu = np.full(np.shape(v), u_b)
-        n, t = blade.normal(uu, v), out * _tangent(blade, uu, v)
+        r, r_u, n = blade.camber_frame(uu, v)
+        t = out * _tangent(r_u, n)
         a_p = speed * (_side_direction(blade, u_b, v, +1, out) - t)
         a_s = speed * (_side_direction(blade, u_b, v, -1, out) - t)
-        return blade.camber(uu, v), n, t, a_p, a_s
+        return r, n, t, a_p, a_s
 
     def face_combine(p: Array, parts: tuple[Array, ...]) -> Array:
         r, n, t = parts[:3]

@@ -145,17 +145,33 @@ class BladeSurface:
         r_u, r_v = self.camber_derivatives(u, v)
         return _unit(self._orientation * np.cross(r_u, r_v))
 
+    def camber_frame(self, u: ArrayLike, v: ArrayLike
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """``camber(u, v)``, ``camber_derivatives(u, v)[0]`` and ``normal(u, v)``
+        (each ``(..., 3)``) from one evaluation of the camber lines."""
+        u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
+        r, r_u, r_v = self._raw_point_and_derivatives(u, v)
+        r_u = self._rotate(r_u)
+        normal = _unit(self._orientation * np.cross(r_u, self._rotate(r_v)))
+        return self._rotate(r), r_u, normal
+
     def thickness(self, u: ArrayLike) -> NDArray[np.float64]:
         """Blade thickness d(u), mm, same shape as ``u``."""
         return np.asarray(self._thickness(np.asarray(u, float)))  # type: ignore[operator]
 
     def side(self, u: ArrayLike, v: ArrayLike, side: int) -> NDArray[np.float64]:
         """Pressure (``side=+1``) or suction (``side=-1``) surface ``R + side d/2 N``."""
+        return self._side_and_normal(u, v, side)[0]
+
+    def _side_and_normal(self, u: ArrayLike, v: ArrayLike, side: int
+                         ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``side(u, v, side)`` and ``normal(u, v)`` from one evaluation of the
+        camber lines."""
         u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
         half = 0.5 * side * self.thickness(u)[..., None]
         r, r_u, r_v = self._raw_point_and_derivatives(u, v)
         normal = _unit(self._orientation * np.cross(self._rotate(r_u), self._rotate(r_v)))
-        return np.asarray(self._rotate(r) + half * normal)
+        return np.asarray(self._rotate(r) + half * normal), normal
 
     def pressure(self, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
         """Pressure surface ``R + d/2 N``, ``(..., 3)``."""
@@ -173,10 +189,19 @@ class BladeSurface:
         """
         u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
         h = _FD_STEP
-        d_u = self.side(u + h, v, side) - self.side(u - h, v, side)
-        d_v = self.side(u, v + h, side) - self.side(u, v - h, side)
+        points: list[NDArray[np.float64]]
+        if u.ndim:  # the four shifted side points and the camber normal, stacked
+            stacked, normals = self._side_and_normal(np.stack([u + h, u - h, u, u, u]),
+                                                     np.stack([v, v, v + h, v - h, v]), side)
+            points, normal = list(stacked[:4]), normals[4]
+        else:  # a 0-d point keeps its own (vector-matrix) rotations, to the bit
+            points = [self.side(u + h, v, side), self.side(u - h, v, side),
+                      self.side(u, v + h, side), self.side(u, v - h, side)]
+            normal = self.normal(u, v)
+        d_u = points[0] - points[1]
+        d_v = points[2] - points[3]
         n = _unit(np.cross(d_u, d_v))
-        flip = np.sign(np.einsum("...i,...i->...", n, side * self.normal(u, v)))
+        flip = np.sign(np.einsum("...i,...i->...", n, side * normal))
         return np.asarray(n * np.where(flip == 0, 1.0, flip)[..., None])
 
     def offset(self, u: ArrayLike, v: ArrayLike, side: int, distance: float) -> NDArray[np.float64]:

@@ -160,7 +160,8 @@ def test_side_is_the_camber_point_plus_half_the_thickness_along_the_normal(
         tmp_path: Path, midspan: bool) -> None:
     """``side`` evaluates each camber line once for the point and the normal; it gives
     ``camber + side d/2 normal`` to the bit, on a main blade and a splitter (its own u),
-    ruled and with a mid-span line, and ``point_and_derivative`` gives ``__call__`` and
+    ruled and with a mid-span line; ``camber_frame`` gives ``camber``, ``R_u`` and
+    ``normal`` to the bit, and ``point_and_derivative`` ``__call__`` and
     ``derivative``."""
     path = write_synthetic_spec(
         tmp_path, midspan=midspan,
@@ -177,6 +178,15 @@ def test_side_is_the_camber_point_plus_half_the_thickness_along_the_normal(
             half = 0.5 * side * b.thickness(u)[:, None]
             assert np.array_equal(b.side(u, v, side), b.camber(u, v) + half * b.normal(u, v))
         assert np.array_equal(b.side(0.3, 0.6, 1), b.side(np.array([0.3]), 0.6, 1)[0])
+        frame = b.camber_frame(u, v)
+        want = (b.camber(u, v), b.camber_derivatives(u, v)[0], b.normal(u, v))
+        assert all(np.array_equal(x, y) for x, y in zip(frame, want, strict=True))
+        # side_normal: central differences of the side, oriented like side * N
+        n = b.side_normal(u, v, -1)
+        assert np.allclose(np.linalg.norm(n, axis=-1), 1.0)
+        assert (np.einsum("ij,ij->i", n, -b.normal(u, v)) > 0.9).all()
+        assert np.allclose(b.side_normal(0.4, 0.5, -1), b.side_normal(np.array([0.4]), 0.5, -1)[0],
+                           rtol=0.0, atol=1e-9)
     curve = blade.shroud_curve
     point, slope = curve.point_and_derivative(u)
     assert np.array_equal(point, curve(u)) and np.array_equal(slope, curve.derivative(u))
