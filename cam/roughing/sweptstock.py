@@ -38,8 +38,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
 
 from cam.roughing.stock import Blank
 
@@ -118,7 +118,7 @@ class SweptStock:
         self.labels = np.concatenate(lab) if lab else np.zeros(0, np.int64)
         order = np.argsort(self.labels, kind="stable")  # labels ascending: "before" is a prefix
         self.points, self.labels = self.points[order], self.labels[order]
-        self.tree = cKDTree(self.points) if len(self.points) else None
+        self._grid = _LabelGrid(self.points, self.labels, 0.5 * self.radius)
         # the poses themselves (ball centre, axis, label): a ball on a pose's axis
         poses = [(np.asarray(r, np.float64), np.asarray(a, np.float64), label)
                  for r, a, label in zip(runs, axes, labels, strict=True) if len(r)]
@@ -162,25 +162,10 @@ class SweptStock:
                  ) -> NDArray[np.bool_]:
         """Whether points ``(n, 3)`` lie within ``within`` of a sample of a run
         labelled below ``before`` (so inside what that run swept)."""
-        ok = np.zeros(len(points), dtype=bool)
-        prefix = int(np.searchsorted(self.labels, before, side="left"))
-        if self.tree is None or prefix == 0 or within <= 0.0 or not len(points):
-            return ok
-        # the nearest samples within reach, 8 then 64: a point is decided when one of
-        # them is from an earlier run, or when fewer than k lie within reach
-        open_ = np.arange(len(points))
-        for k in (8, 64):
-            d, idx = self.tree.query(points[open_], k=k, distance_upper_bound=within)
-            found = np.isfinite(d)
-            ok[open_] = (found & (idx < prefix)).any(axis=1)
-            open_ = open_[found.all(axis=1) & ~ok[open_]]
-            if not len(open_):
-                return ok
-        # more than 64 samples within reach, all from later runs: look at every sample
-        for i, near in zip(open_.tolist(), self.tree.query_ball_point(points[open_], within),
-                           strict=True):
-            ok[i] = bool(near) and min(near) < prefix
-        return ok
+        p = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
+        if within <= 0.0 or not len(p) or not len(self.points):
+            return np.zeros(len(p), dtype=bool)
+        return self._grid.any_before(p, before, within)
 
     def _on_a_column(self, centre: NDArray[np.float64], before: int) -> bool:
         """The ball at ``centre`` lies on the axis of a cut pose of a run before
@@ -229,6 +214,114 @@ class SweptStock:
             if len(ok):
                 return float(part[ok[0]])
         return float(limit)
+
+class _LabelGrid:
+    """Labelled points in a uniform grid of cubes, each cube's points in label order:
+    whether a point lies within ``r`` of a point labelled below ``before`` looks at
+    the cubes around it and, in each, only at its points labelled below ``before``
+    (``_any_before``).
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+    labels : (n,) int64
+    cell : float
+        Edge of the cubes, mm (grown where the grid would exceed ``MAX_CELLS``).
+    """
+
+    #: Cubes of the grid at most (its memory: 8 bytes per cube).
+    MAX_CELLS = 4_000_000
+
+    def __init__(self, points: NDArray[np.float64], labels: NDArray[np.int64],
+                 cell: float) -> None:
+        lo = points.min(axis=0) if len(points) else np.zeros(3)
+        hi = points.max(axis=0) if len(points) else np.zeros(3)
+        span = hi - lo
+        cell = max(float(cell), 1e-3, float(np.prod(span + 1e-9) / self.MAX_CELLS) ** (1 / 3))
+        dims = np.floor(span / cell).astype(np.int64) + 1
+        while int(np.prod(dims)) > self.MAX_CELLS:
+            cell *= 1.25
+            dims = np.floor(span / cell).astype(np.int64) + 1
+        key = _cell_keys(np.ascontiguousarray(points), lo, cell, dims)
+        order = np.lexsort((labels, key))  # by cube, then by label
+        self.origin, self.cell, self.dims = lo, cell, dims
+        self.points = np.ascontiguousarray(points[order])
+        self.labels = np.ascontiguousarray(labels[order])
+        counts = np.bincount(key, minlength=int(np.prod(dims)))
+        self.start = np.concatenate([[0], np.cumsum(counts)])  # cube k: start[k]:start[k+1]
+
+    def any_before(self, points: NDArray[np.float64], before: int, within: float
+                   ) -> NDArray[np.bool_]:
+        """Whether each of ``points`` ``(m, 3)`` lies closer than ``within`` (mm) to a
+        point labelled below ``before``."""
+        reach = int(math.ceil(within / self.cell))
+        return np.asarray(_any_before(points, self.points, self.labels, self.start,
+                                      self.origin, self.cell, self.dims, int(before),
+                                      float(within), reach))
+
+
+@njit(cache=True, nogil=True)
+def _cell_keys(points: NDArray[np.float64], origin: NDArray[np.float64], cell: float,
+               dims: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Flat index of each point's cube (points inside the grid's box)."""
+    out = np.empty(points.shape[0], dtype=np.int64)
+    for i in range(points.shape[0]):
+        c = np.empty(3, dtype=np.int64)
+        for a in range(3):
+            c[a] = min(max(int(math.floor((points[i, a] - origin[a]) / cell)), 0), dims[a] - 1)
+        out[i] = (c[0] * dims[1] + c[1]) * dims[2] + c[2]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _gap(p: float, low: float, cell: float) -> float:
+    """Distance along one axis from ``p`` to the interval ``[low, low + cell]``, less
+    1e-9 mm (a point's cube is found by rounding)."""
+    return max(low - p - 1e-9, 0.0, p - low - cell - 1e-9)
+
+
+@njit(cache=True, nogil=True)
+def _any_before(points: NDArray[np.float64], grid_points: NDArray[np.float64],
+                labels: NDArray[np.int64], start: NDArray[np.int64],
+                origin: NDArray[np.float64], cell: float, dims: NDArray[np.int64],
+                before: int, within: float, reach: int) -> NDArray[np.bool_]:
+    """``_LabelGrid.any_before``: the cubes within ``reach`` cubes of each point's,
+    each read in label order up to the first label at or above ``before``."""
+    out = np.zeros(points.shape[0], dtype=np.bool_)
+    w2 = within * within
+    for i in range(points.shape[0]):
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        cx = int(math.floor((px - origin[0]) / cell))
+        cy = int(math.floor((py - origin[1]) / cell))
+        cz = int(math.floor((pz - origin[2]) / cell))
+        found = False
+        for x in range(max(cx - reach, 0), min(cx + reach, dims[0] - 1) + 1):
+            gx = _gap(px, origin[0] + x * cell, cell)
+            for y in range(max(cy - reach, 0), min(cy + reach, dims[1] - 1) + 1):
+                gy = _gap(py, origin[1] + y * cell, cell)
+                for z in range(max(cz - reach, 0), min(cz + reach, dims[2] - 1) + 1):
+                    gz = _gap(pz, origin[2] + z * cell, cell)
+                    if gx * gx + gy * gy + gz * gz >= w2:
+                        continue  # the whole cube lies too far
+                    key = (x * dims[1] + y) * dims[2] + z
+                    for j in range(start[key], start[key + 1]):
+                        if labels[j] >= before:
+                            break
+                        dx = grid_points[j, 0] - px
+                        dy = grid_points[j, 1] - py
+                        dz = grid_points[j, 2] - pz
+                        if dx * dx + dy * dy + dz * dz < w2:
+                            found = True
+                            break
+                    if found:
+                        break
+                if found:
+                    break
+            if found:
+                break
+        out[i] = found
+    return out
+
 
 def _along(run: NDArray[np.float64], axes: NDArray[np.float64], step: float
            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -454,11 +454,12 @@ def test_swept_stock_a_ball_grazing_the_wall_of_its_groove_is_not_in_air() -> No
 
 
 def test_swept_stock_removed_is_an_earlier_sample_within_reach() -> None:
-    """``_removed`` (the nearest 8, then 64 samples, then every sample within reach)
+    """``_removed`` (a grid of cubes, each read in run order up to ``before``)
     answers exactly whether a sample of a run labelled below ``before`` lies within
     reach: brute force over every sample, on twelve runs packed 0.2 mm apart so that
     a point near the later runs has more than 64 samples within reach, all of them
-    later than ``before``."""
+    later than ``before`` (where a k-d tree's nearest samples decide nothing), and at
+    reaches below and above the grid's cube (R / 2)."""
     from cam.roughing.sweptstock import SweptStock
 
     rng = np.random.default_rng(5)
@@ -474,7 +475,7 @@ def test_swept_stock_removed_is_an_earlier_sample_within_reach() -> None:
             want = (gap[:, prefix] < within).any(axis=1)
             assert np.array_equal(swept._removed(points, before, within), want)
             crowded += int(((gap[:, ~prefix] < within).sum(axis=1) > 64).sum())
-    assert crowded > 100  # the last step (every sample) was taken
+    assert crowded > 100
 
 
 def test_swept_stock_sphere_points_cover_the_sphere() -> None:
