@@ -205,9 +205,22 @@ def _chain(rotary: Array, cost: Array, sense: Array) -> NDArray[np.intp]:
     return choice
 
 
+@dataclass
+class _Rings:
+    """Where a ring search (``_search``) stood after ``ring`` rings: per offender of
+    ``index`` and tilt direction, the smallest clear ring's cone angle (inf: none
+    yet), the rotary target (A, C) and its cost."""
+
+    index: NDArray[np.intp]
+    theta_min: Array
+    rotary: Array
+    cost: Array
+    ring: int
+
+
 def _search(scene: CollisionScene, tool: Tool, kins: Kinematics, axis: Array, joints: Array,
-            rules: PostureRules, index: NDArray[np.intp], options: FinishOptions
-            ) -> tuple[Array, Mask, Array]:
+            rules: PostureRules, index: NDArray[np.intp], options: FinishOptions,
+            resume: _Rings | None = None) -> tuple[Array, Mask, Array, _Rings]:
     """Cone postures that meet every rule at ``index``, chosen along clusters.
 
     For every posture and tilt direction psi the smallest ring theta whose posture
@@ -219,6 +232,11 @@ def _search(scene: CollisionScene, tool: Tool, kins: Kinematics, axis: Array, jo
     penalty for consecutive targets against the direction of A or C (the monotone
     blend could not meet them).
 
+    ``resume``: the rings a search of the same offenders, postures and options, with
+    a cone no wider than this one's, has searched (its ``_Rings``): this search goes on
+    from the next ring, with what they found (the rings up to the preferred cone are
+    searched alike whatever the cone's limit).
+
     Returns
     -------
     target : (m, 2) float64
@@ -226,19 +244,28 @@ def _search(scene: CollisionScene, tool: Tool, kins: Kinematics, axis: Array, jo
     found : (m,) bool
     theta : (m,) float64
         Cone angle of the chosen posture, rad (NaN where none).
+    rings : _Rings
+        Where the search stood after its last ring.
     """
     m = len(index)
-    if not m:
-        return np.zeros((0, 2)), np.zeros(0, dtype=bool), np.zeros(0)
     k = options.tilt_directions
+    if not m:
+        return (np.zeros((0, 2)), np.zeros(0, dtype=bool), np.zeros(0),
+                _Rings(index, np.zeros((0, k)), np.zeros((0, k, 2)), np.zeros((0, k)), 0))
     step = math.radians(options.tilt_search_step_deg)
     rings = int(math.floor(options.tilt_search_deg / options.tilt_search_step_deg + 1e-9))
     need = options.clearance_mm + options.repair_margin_mm
-    theta_min = np.full((m, k), np.inf)
-    rotary = np.zeros((m, k, 2))
-    cost = np.full((m, k), np.inf)
+    first = 1
+    if resume is not None and np.array_equal(resume.index, index):
+        theta_min, rotary, cost = resume.theta_min.copy(), resume.rotary.copy(), \
+            resume.cost.copy()
+        first = resume.ring + 1
+    else:
+        theta_min = np.full((m, k), np.inf)
+        rotary = np.zeros((m, k, 2))
+        cost = np.full((m, k), np.inf)
     current = joints[index][:, 3:5]
-    for ring in range(1, rings + 1):
+    for ring in range(first, rings + 1):
         open_pairs = ~np.isfinite(theta_min)
         theta = ring * step
         if theta > math.radians(PREFERRED_TILT_DEG) + 1e-12:
@@ -267,6 +294,7 @@ def _search(scene: CollisionScene, tool: Tool, kins: Kinematics, axis: Array, jo
         theta_min[who, psi] = theta
         rotary[who, psi] = joint
         cost[who, psi] = change + theta  # joint change plus the tilt itself
+    searched = _Rings(index, theta_min.copy(), rotary.copy(), cost.copy(), max(rings, first - 1))
     target = current.copy()
     found = np.zeros(m, dtype=bool)
     theta_used = np.full(m, np.nan)
@@ -281,7 +309,7 @@ def _search(scene: CollisionScene, tool: Tool, kins: Kinematics, axis: Array, jo
         target[live] = rotary[live, choice]
         theta_used[live] = theta_min[live, choice]
         found[live] = True
-    return target, found, theta_used
+    return target, found, theta_used, searched
 
 
 def _arc(centre: Array) -> Array:
@@ -396,10 +424,12 @@ def repair_postures(scene: CollisionScene, tool: Tool, kins: Kinematics, rules: 
     """
     narrow = replace(options, tilt_search_deg=min(options.tilt_search_deg,
                                                   PREFERRED_TILT_DEG))
-    first = _repair_rounds(scene, tool, kins, rules, inter, joints, narrow)
+    first, searched = _repair_rounds(scene, tool, kins, rules, inter, joints, narrow)
     if not first.unresolved.size or options.tilt_search_deg <= PREFERRED_TILT_DEG:
         return first
-    wide = _repair_rounds(scene, tool, kins, rules, inter, joints, options)
+    # the wide run's first round starts where the narrow one's did: its rings up to
+    # the preferred cone are the ones the narrow search has checked
+    wide, _ = _repair_rounds(scene, tool, kins, rules, inter, joints, options, searched)
     if _badness(wide.interference, wide.joints, rules, options) < \
             _badness(first.interference, first.joints, rules, options):
         return wide
@@ -407,9 +437,11 @@ def repair_postures(scene: CollisionScene, tool: Tool, kins: Kinematics, rules: 
 
 
 def _repair_rounds(scene: CollisionScene, tool: Tool, kins: Kinematics, rules: PostureRules,
-                   inter: InterferenceResult, joints: Array, options: FinishOptions
-                   ) -> RepairResult:
-    """Search-and-absorb rounds with the options' cone (``repair_postures``)."""
+                   inter: InterferenceResult, joints: Array, options: FinishOptions,
+                   resume: _Rings | None = None) -> tuple[RepairResult, _Rings | None]:
+    """Search-and-absorb rounds with the options' cone (``repair_postures``); also
+    where the first round's search stood (``_search``'s ``resume`` for its first
+    round: ``None`` without a round)."""
     radius = tool.radius
     arc = _arc(rules.centre)
     deadband = math.radians(options.reversal_deadband_deg)
@@ -418,10 +450,13 @@ def _repair_rounds(scene: CollisionScene, tool: Tool, kins: Kinematics, rules: P
     rounds = 0
     bad = offenders(inter, rules, options)
     best = (_badness(inter, joints, rules, options), inter, joints, bad, set(tilted), max_tilt)
+    first_search: _Rings | None = None
     while bad.size and rounds < options.repair_rounds:
         rounds += 1
-        target, found, theta = _search(scene, tool, kins, inter.axis, joints, rules, bad,
-                                       options)
+        target, found, theta, searched = _search(scene, tool, kins, inter.axis, joints,
+                                                 rules, bad, options,
+                                                 resume if rounds == 1 else None)
+        first_search = searched if rounds == 1 else first_search
         if not found.any():
             break
         index = bad[found]
@@ -447,4 +482,4 @@ def _repair_rounds(scene: CollisionScene, tool: Tool, kins: Kinematics, rules: P
             best = (badness, inter, joints, bad, set(tilted), max_tilt)
     _, inter, joints, bad, tilted, max_tilt = best
     return RepairResult(inter, joints, rounds, np.asarray(sorted(tilted), dtype=np.intp),
-                        max_tilt, bad)
+                        max_tilt, bad), first_search

@@ -200,3 +200,51 @@ def test_a_tall_wall_needs_more_than_ten_degrees_of_tilt() -> None:
     assert count_reversals(again[:, 3], deadband) == 0
     assert count_reversals(again[:, 4], deadband) == 0
     assert not check_path(scene, TOOL, final.tip, final.axis, options).smaller_tool_needed
+
+
+def test_the_wide_search_resumes_where_the_narrow_one_stopped() -> None:
+    """``repair_postures``'s wide run starts its first round from the rings the narrow
+    run's first round checked: the same targets, cone angles and ring state as a wide
+    search from the first ring, with fewer collision queries (a wall as tall as the
+    tool beside axes almost along C, and a lower wall where 10 deg suffice)."""
+    from dataclasses import replace
+
+    from cam.finishing.repair import PREFERRED_TILT_DEG, _search
+
+    kins = kinematics_for(load_machine(MACHINE))
+    n = 21
+    for height in (110.0, 40.0):
+        wall = trimesh.creation.box(extents=[1.0, 100.0, height])
+        wall.apply_translation([-0.5, 0.0, 0.5 * height])
+        scene = CollisionScene({"wall": wall}, grid_spacing=2.0)
+        centre = np.column_stack([np.full(n, 2.6), np.linspace(-10.0, 10.0, n),
+                                  np.full(n, 5.0)])
+        lean = math.radians(2.0)
+        axis = np.tile([0.0, math.sin(lean), math.cos(lean)], (n, 1))
+        rules = PostureRules(centre, np.tile([1.0, 0.0, 0.0], (n, 1)),
+                             np.tile([0.0, 1.0, 0.0], (n, 1)), np.tile([1.0, 0.0, 0.0], (n, 1)),
+                             hub_contact=False)
+        options = FinishOptions()
+        narrow = replace(options, tilt_search_deg=PREFERRED_TILT_DEG)
+        joints = kins.inverse(centre - TOOL.radius * axis, axis)
+        index = np.arange(n)
+        calls = [0]
+        check = scene.check_postures
+
+        def counted(*args: object, calls: list[int] = calls, check: object = check,
+                    **kwargs: object) -> object:
+            calls[0] += 1
+            return check(*args, **kwargs)  # type: ignore[operator]
+
+        scene.check_postures = counted  # type: ignore[method-assign]
+        *_, rings = _search(scene, TOOL, kins, axis, joints, rules, index, narrow)
+        calls[0] = 0
+        fresh = _search(scene, TOOL, kins, axis, joints, rules, index, options)
+        from_scratch = calls[0]
+        calls[0] = 0
+        resumed = _search(scene, TOOL, kins, axis, joints, rules, index, options, rings)
+        for a, b in zip(fresh[:3], resumed[:3], strict=True):
+            assert np.array_equal(a, b, equal_nan=True)
+        for name in ("theta_min", "rotary", "cost"):
+            assert np.array_equal(getattr(fresh[3], name), getattr(resumed[3], name))
+        assert calls[0] < from_scratch
