@@ -215,6 +215,7 @@ class SweptStock:
                 return float(part[ok[0]])
         return float(limit)
 
+
 class _LabelGrid:
     """Labelled points in a uniform grid of cubes, each cube's points in label order:
     whether a point lies within ``r`` of a point labelled below ``before`` looks at
@@ -266,10 +267,10 @@ def _cell_keys(points: NDArray[np.float64], origin: NDArray[np.float64], cell: f
     """Flat index of each point's cube (points inside the grid's box)."""
     out = np.empty(points.shape[0], dtype=np.int64)
     for i in range(points.shape[0]):
-        c = np.empty(3, dtype=np.int64)
-        for a in range(3):
-            c[a] = min(max(int(math.floor((points[i, a] - origin[a]) / cell)), 0), dims[a] - 1)
-        out[i] = (c[0] * dims[1] + c[1]) * dims[2] + c[2]
+        cx = min(max(int(math.floor((points[i, 0] - origin[0]) / cell)), 0), dims[0] - 1)
+        cy = min(max(int(math.floor((points[i, 1] - origin[1]) / cell)), 0), dims[1] - 1)
+        cz = min(max(int(math.floor((points[i, 2] - origin[2]) / cell)), 0), dims[2] - 1)
+        out[i] = (cx * dims[1] + cy) * dims[2] + cz
     return out
 
 
