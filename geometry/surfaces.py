@@ -169,9 +169,8 @@ class BladeSurface:
         camber lines."""
         u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
         half = 0.5 * side * self.thickness(u)[..., None]
-        r, r_u, r_v = self._raw_point_and_derivatives(u, v)
-        normal = _unit(self._orientation * np.cross(self._rotate(r_u), self._rotate(r_v)))
-        return np.asarray(self._rotate(r) + half * normal), normal
+        r, _, normal = self.camber_frame(u, v)
+        return np.asarray(r + half * normal), normal
 
     def pressure(self, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
         """Pressure surface ``R + d/2 N``, ``(..., 3)``."""

@@ -122,11 +122,12 @@ def _profile_touches(points: NDArray[np.float64], profile: NDArray[np.float64],
     ni, nj = cell_clear.shape
     for i in range(points.shape[0]):
         qr, qz = np.hypot(points[i, 0], points[i, 1]), points[i, 2]
-        ci = int(math.floor((qr - origin[0]) / size))
-        cj = int(math.floor((qz - origin[1]) / size))
         if qr - rmax > far or rmin - qr > far or qz - zmax > far or zmin - qz > far:
             out[i] = False
-        elif 0 <= ci < ni and 0 <= cj < nj and cell_clear[ci, cj] > far:
+            continue
+        ci = int(math.floor((qr - origin[0]) / size))
+        cj = int(math.floor((qz - origin[1]) / size))
+        if 0 <= ci < ni and 0 <= cj < nj and cell_clear[ci, cj] > far:
             out[i] = cell_inside[ci, cj]
         elif radius > 0.0:
             out[i] = _nearest(qr, qz, profile, radius) < radius or _inside(qr, qz, profile)
