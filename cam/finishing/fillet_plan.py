@@ -33,10 +33,10 @@ from pathlib import Path
 from cam.collision import CollisionScene
 from cam.finishing.fillet_paths import LEAN_DEG, fillet_passes
 from cam.finishing.options import FinishOptions
+from cam.finishing.pass_groups import finish_ordered
 from cam.finishing.paths import CutterPath, rotate_path
 from cam.finishing.pieces import (
     cut_short_entry,
-    finish_ordered,
     finish_pieces,
     finish_runs,
     finish_trimmed,

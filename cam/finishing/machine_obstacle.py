@@ -87,6 +87,7 @@ class MachineObstacle(SceneWrapper, CollisionScene):
         #: ``posture_blocked``'s answers by tool name and the postures' bytes (the
         #: planner's last check of a path's postures is asked again for finish.json)
         self._blocked: dict[tuple[str, bytes, bytes], NDArray[np.bool_]] = {}
+        self._planner_tools: dict[str, Tool] = {}  # the tools of ``queries``
 
     def query(self, tool: Tool) -> MachineClearance:
         """The clearance query of ``tool`` (cached per tool name)."""
@@ -95,6 +96,7 @@ class MachineObstacle(SceneWrapper, CollisionScene):
             scene = machine_scene(self.model, tool, None, part=self.part)
             found = self.queries[tool.name] = MachineClearance(scene, self.kins,
                                                                tool_side=True)
+            self._planner_tools[tool.name] = tool
         return found
 
     def query_every(self, tool: Tool) -> MachineClearance:
@@ -113,6 +115,37 @@ class MachineObstacle(SceneWrapper, CollisionScene):
         return {"poses": sum(q.poses for q in queries),
                 "distance_queries": sum(q.queries for q in queries),
                 "seconds": sum(q.seconds for q in queries)}
+
+    # -- what a forked planner hands back (``pass_groups``) --------------------------
+
+    def planner_mark(self) -> tuple[dict[str, tuple[int, int, float]], int]:
+        """The planner's query counts per tool and the number of kept answers now."""
+        return ({name: (q.poses, q.queries, q.seconds) for name, q in self.queries.items()},
+                len(self._blocked))
+
+    def planner_delta(self, mark: tuple[dict[str, tuple[int, int, float]], int]
+                      ) -> dict[str, Any]:
+        """What the planner's queries counted and ``posture_blocked`` kept since ``mark``
+        (``planner_mark``): ``{"tools", "counts", "blocked"}``, to pickle."""
+        counts, kept = mark
+        delta = {}
+        for name, q in self.queries.items():
+            poses, queries, seconds = counts.get(name, (0, 0, 0.0))
+            delta[name] = (q.poses - poses, q.queries - queries, q.seconds - seconds)
+        tools = {name: self._planner_tools[name] for name in delta}
+        return {"tools": tools, "counts": delta,
+                "blocked": dict(list(self._blocked.items())[kept:])}
+
+    def merge_planner_delta(self, delta: dict[str, Any]) -> None:
+        """Add a forked planner's ``planner_delta`` to this obstacle's counts and kept
+        answers, as if its queries had run here."""
+        for name, (poses, queries, seconds) in delta["counts"].items():
+            q = self.query(delta["tools"][name])
+            q.poses += poses
+            q.queries += queries
+            q.seconds += seconds
+        for key, value in delta["blocked"].items():
+            self._blocked.setdefault(key, value)
 
     # -- checks ------------------------------------------------------------------------
 

@@ -25,7 +25,7 @@ fillet (``edge_plan``, ``fillet_plan``).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -38,16 +38,14 @@ from cam.finishing.options import FinishOptions
 from cam.finishing.paths import CutterPath, subset_path
 from cam.finishing.plan import PathResult, finish_path, tail_end
 from cam.finishing.stock_clearance import STOCK_ROLE, stock_blocks
-from cam.finishing.turned_plan import turned_plan
 from cam.tools import Tool
 from geometry.surfaces import ImpellerSurfaces
 from postproc.kinematics import Kinematics
 
 if TYPE_CHECKING:
     from cam.collision import CollisionScene
-    from cam.finishing.plan_memo import PlanMemo
 
-__all__ = ["MIN_PIECE", "TRIM_ROUNDS", "cut_short_entry", "finish_ordered", "finish_pieces",
+__all__ = ["MIN_PIECE", "TRIM_ROUNDS", "cut_short_entry", "finish_pieces",
            "finish_runs",
            "finish_trimmed", "kept_pieces", "offenders", "PassTrim", "trimmed_passes"]
 
@@ -374,70 +372,3 @@ def cut_short_entry(path: CutterPath, lost: NDArray[np.intp],
     if causes is not None:
         entry["causes"] = list(causes)
     return entry
-
-
-def finish_ordered(ordered: Sequence[CutterPath], tool: Tool, kins: Kinematics,
-                   scene: CollisionScene, options: FinishOptions,
-                   surfaces: ImpellerSurfaces | None, memo: PlanMemo | None = None,
-                   progress: Callable[[int, int, str], None] | None = None
-                   ) -> tuple[list[PathResult], list[dict[str, Any]]]:
-    """Every pass of ``ordered`` finished (``finish_runs``): the clean pieces in order and
-    finish.json's ``cut_short`` entries.
-
-    The same pass in the previous passage hands on its eq. 7 remedy step
-    (``interference.StepHint``), tried first and proven before it is taken, so the
-    results are those without it, with fewer checks. A pass that passage 0 planned
-    clean (nothing left out) is, in the other passages, first passage 0's plan turned
-    about the axis and checked again in full (``turned_plan``); it is planned only
-    when that fails a check. With a ``memo``
-    (``plan_memo.PlanMemo``) a pass's recorded plan is reused and new plans are
-    recorded, each with the causes of its left-out postures; a pass planned anew
-    keeps its recorded plan when that leaves fewer postures out (``_fewer_left_out``).
-    """
-    results: list[PathResult] = []
-    cut_short: list[dict[str, Any]] = []
-    hints: dict[str, StepHint | None] = {}
-    first: dict[str, tuple[CutterPath, list[PathResult]]] = {}  # passage 0's clean plans
-    for i, path in enumerate(ordered):
-        key = path.name.split(".", 1)[1]  # the pass, whatever the passage
-        known = None if memo is None else memo.recall(tool.name, path.name)
-        if known is None and key in first and surfaces is not None:
-            turned = turned_plan(first[key][1], first[key][0], path, surfaces.spec.pitch,
-                                 tool, kins, scene, options, surfaces)
-            if turned is not None:
-                known = (turned, np.zeros(0, dtype=np.intp), [])
-                if memo is not None:
-                    memo.record(tool.name, path.name, known)
-        if known is None:
-            causes: list[str | None] = []
-            known = (*finish_runs(path, tool, kins, scene, options, surfaces,
-                                  hint=hints.get(key), causes=causes), causes)
-            if memo is not None:
-                known = _fewer_left_out(known, memo.plans.get((tool.name, path.name)))
-                memo.record(tool.name, path.name, known)
-        pieces, lost, why = known
-        results += pieces
-        hints[key] = pieces[0].step_hint if len(pieces) == 1 and not lost.size else None
-        if path.passage == 0 and pieces and not lost.size:
-            first[key] = (path, pieces)
-        if lost.size:
-            cut_short.append(cut_short_entry(path, lost, why))
-        if progress is not None:
-            progress(i + 1, len(ordered), path.name)
-    return results, cut_short
-
-
-def _fewer_left_out(new: tuple[list[PathResult], NDArray[np.intp], list[str | None]],
-                    earlier: Any) -> tuple[list[PathResult], NDArray[np.intp], list[str | None]]:
-    """A pass's new plan, or its ``earlier`` one (a memo's: planned against the rough
-    stock) when that leaves fewer postures out.
-
-    The chain plans a pass again after the rest operation, which only removes
-    material: the earlier plan's pieces stay clean against the smaller stock, so
-    planning anew never leaves more out than before (on the splitter a junction pass
-    planned against the rest stock left 8 postures out where its rough-stock plan
-    left 5).
-    """
-    if earlier is not None and len(earlier[1]) < len(new[1]):
-        return earlier  # type: ignore[no-any-return]
-    return new

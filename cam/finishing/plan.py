@@ -456,7 +456,8 @@ def plan_finishing(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
                          blade=options.blade_passes, hub=options.hub_passes,
                          reach=max(tool.flute_length - tool.radius, 0.0),
                          chordal=options.chordal_tolerance_mm)
-    from cam.finishing.pieces import finish_ordered, trimmed_passes  # build on finish_path
+    from cam.finishing.pass_groups import finish_ordered  # they build on finish_path
+    from cam.finishing.pieces import trimmed_passes
 
     kept: dict[str, int] = {}
     if keep is not None:

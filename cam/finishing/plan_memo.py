@@ -48,11 +48,16 @@ class PlanMemo:
     recalled: int = 0
     run: RunMemo = field(default_factory=RunMemo)
 
-    def recall(self, tool: str, name: str) -> Any | None:
-        """The recorded plan of pass ``name`` with ``tool``; None: plan it."""
+    def lookup(self, tool: str, name: str) -> Any | None:
+        """``recall`` without counting it (``pass_groups``: a child process looks up,
+        the caller recalls)."""
         if name in self.replan:
             return None
-        plan = self.plans.get((tool, name))
+        return self.plans.get((tool, name))
+
+    def recall(self, tool: str, name: str) -> Any | None:
+        """The recorded plan of pass ``name`` with ``tool``; None: plan it."""
+        plan = self.lookup(tool, name)
         if plan is not None:
             self.recalled += 1
         return plan

@@ -23,8 +23,9 @@ import trimesh
 from cam.collision import CollisionScene
 from cam.finishing.driven import DrivenScene
 from cam.finishing.options import FinishOptions
+from cam.finishing.pass_groups import finish_ordered
 from cam.finishing.paths import CutterPath
-from cam.finishing.pieces import finish_ordered, finish_runs, offenders
+from cam.finishing.pieces import finish_runs, offenders
 from cam.finishing.plan import finish_path
 from cam.finishing.stock_clearance import (
     StockScene,

@@ -1,5 +1,5 @@
 """A pass's plan in another passage as passage 0's plan turned and re-checked
-(cam/finishing/turned_plan.py, ``pieces.finish_ordered``).
+(cam/finishing/turned_plan.py, ``pass_groups.finish_ordered``).
 
 On the small fixture's closed-form surfaces (xyzac-trt without its model): the turned
 plan of a clean pass is passage 0's postures turned by the pitch, with the same joints
@@ -19,9 +19,10 @@ import trimesh
 
 from cam.collision import CollisionScene
 from cam.finishing.options import FinishOptions, scallop_stepover
+from cam.finishing.pass_groups import finish_ordered
 from cam.finishing.passes import passage_paths
 from cam.finishing.paths import rotate_path
-from cam.finishing.pieces import finish_ordered, finish_runs, offenders
+from cam.finishing.pieces import finish_runs, offenders
 from cam.finishing.posture import rotate_about_z
 from cam.finishing.scene import surface_meshes
 from cam.finishing.turned_plan import turned_plan
