@@ -6,8 +6,11 @@ reverse movement is a zero crossing of this curve. PNG files, matplotlib Agg,
 written atomically and without a timestamp (same input, same bytes).
 
 A run writes one plot per path of passage 0 (about a hundred on nine_blade), so
-``plot_angular_displacements`` draws them all on one figure, replacing the curves'
-data between files (a new figure per file cost about a fifth more).
+``plot_angular_displacements`` shares them out over forked processes
+(``impeller_cam.processes``), and each process draws its share on one figure,
+replacing the curves' data between files (a new figure per file cost about a fifth
+more). Each plot's layout starts from the figure's first, so a file's bytes do not
+depend on which plots were drawn before it.
 """
 
 from __future__ import annotations
@@ -21,7 +24,10 @@ from numpy.typing import NDArray
 
 from impeller_cam.atomic import write_bytes_atomic
 
-__all__ = ["plot_angular_displacement", "plot_angular_displacements"]
+__all__ = ["PER_SHARE", "plot_angular_displacement", "plot_angular_displacements"]
+
+#: Plots a forked process draws at least (a fork costs about as much as a few plots).
+PER_SHARE = 8
 
 Plot = tuple[NDArray[np.float64], NDArray[np.float64], "str | Path", str]
 
@@ -42,20 +48,41 @@ def plot_angular_displacement(before: NDArray[np.float64], after: NDArray[np.flo
     return plot_angular_displacements([(before, after, path, title)])[0]
 
 
-def plot_angular_displacements(plots: Iterable[Plot]) -> list[Path]:
-    """Write several paths' plots (``plot_angular_displacement``) on one figure.
+def plot_angular_displacements(plots: Iterable[Plot], workers: int | None = None
+                               ) -> list[Path]:
+    """Write several paths' plots (``plot_angular_displacement``), each share of them on
+    one figure, the shares on forked processes.
 
     Parameters
     ----------
     plots : iterable of (before, after, path, title)
         As ``plot_angular_displacement``'s arguments: joints ``(n, 5)`` (X Y Z mm,
         A C rad) of the initial and final postures, the PNG file, the title.
+    workers : int, optional
+        Processes at most (``impeller_cam.processes.map_forked``; default: the CPUs);
+        a file's bytes do not depend on which figure drew it.
 
     Returns
     -------
     list of Path
         The files written, in order.
     """
+    from impeller_cam.processes import map_forked
+    from impeller_cam.threads import default_threads
+
+    todo = list(plots)
+    count = max(1, min(len(todo) // PER_SHARE,
+                       default_threads() if workers is None else int(workers)))
+    shares = [todo[k::count] for k in range(count)]
+    drawn = map_forked(lambda k: _draw(shares[k]), count, count)
+    written: list[Path] = [Path()] * len(todo)
+    for k, files in enumerate(drawn):
+        written[k::count] = files
+    return written
+
+
+def _draw(plots: list[Plot]) -> list[Path]:
+    """``plot_angular_displacements`` on one figure, in this process."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -72,6 +99,9 @@ def plot_angular_displacements(plots: Iterable[Plot]) -> list[Path]:
         ax.set_ylabel(f"{name} displacement (deg)")
         ax.grid(alpha=0.3)
     axes[1].set_xlabel("tool path point")
+    params = fig.subplotpars
+    start = {k: getattr(params, k) for k in ("left", "right", "bottom", "top", "wspace",
+                                              "hspace")}
     written = []
     try:
         for before, after, path, title in plots:
@@ -83,6 +113,9 @@ def plot_angular_displacements(plots: Iterable[Plot]) -> list[Path]:
                 ax.autoscale_view()
             axes[0].legend(loc="best", fontsize=8)
             axes[0].set_title(title, fontsize=10)
+            # from the same starting layout each time: a file's bytes do not depend on
+            # the plot drawn before it on this figure
+            fig.subplots_adjust(**start)
             fig.tight_layout()
             buffer = io.BytesIO()
             fig.savefig(buffer, format="png", dpi=100, metadata={"Software": None})
