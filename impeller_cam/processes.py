@@ -13,11 +13,18 @@ result that does not pickle, leaves its jobs to the caller too. Where ``fork`` i
 available, with one worker, or in a child of ``map_forked`` itself, the jobs run in
 the caller, one after the other. Either way the results are those of the plain
 calls, in the jobs' order.
+
+An object the jobs change as a side effect (query counters, answers kept for the
+next question) can be handed in as ``keep``: it has ``fork_mark()`` (its state now),
+``fork_delta(mark)`` (what changed since, to pickle) and ``merge_fork_delta(delta)``
+(add that); each child's delta is merged into the caller's object as its job
+finishes, so the object ends as if every job had run in the caller.
 """
 
 from __future__ import annotations
 
 import multiprocessing
+import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any, TypeVar
@@ -44,7 +51,7 @@ def _run(index: int) -> tuple[int, bool, Any]:
 
 def map_forked(job: Callable[[int], T], count: int, workers: int | None = None,
                costs: Sequence[float] | None = None,
-               done: Callable[[int, T], None] | None = None) -> list[T]:
+               done: Callable[[int, T], None] | None = None, keep: Any = None) -> list[T]:
     """``[job(0), ..., job(count - 1)]``, the jobs run on up to ``workers`` forked
     processes.
 
@@ -63,6 +70,8 @@ def map_forked(job: Callable[[int], T], count: int, workers: int | None = None,
         does not start last and leave the other workers idle.
     done : callable, optional
         ``done(i, result)``, called in the caller as each job finishes (any order).
+    keep : object, optional
+        What the jobs change and the caller keeps (module docstring).
 
     Returns
     -------
@@ -70,6 +79,8 @@ def map_forked(job: Callable[[int], T], count: int, workers: int | None = None,
         The jobs' results in the jobs' order.
     """
     global _JOB
+    if keep is not None:
+        return _map_keeping(job, count, workers, costs, done, keep)
     order = list(range(count)) if costs is None else sorted(range(count),
                                                              key=lambda i: -costs[i])
     size = min(count, default_threads() if workers is None else int(workers))
@@ -105,3 +116,23 @@ def map_forked(job: Callable[[int], T], count: int, workers: int | None = None,
         if done is not None:
             done(index, results[index])
     return [results[i] for i in range(count)]
+
+
+def _map_keeping(job: Callable[[int], T], count: int, workers: int | None,
+                 costs: Sequence[float] | None, done: Callable[[int, T], None] | None,
+                 keep: Any) -> list[T]:
+    """``map_forked`` with ``keep``: each child's change to it merged in the caller."""
+    caller = os.getpid()
+
+    def marked(i: int) -> tuple[T, Any]:
+        mark = keep.fork_mark()
+        value = job(i)
+        return value, None if os.getpid() == caller else keep.fork_delta(mark)
+
+    def merged(i: int, result: tuple[T, Any]) -> None:
+        if result[1] is not None:
+            keep.merge_fork_delta(result[1])
+        if done is not None:
+            done(i, result[0])
+
+    return [value for value, _ in map_forked(marked, count, workers, costs, merged)]

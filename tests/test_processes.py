@@ -55,3 +55,34 @@ def test_a_child_maps_its_own_jobs_itself() -> None:
         return [int(p == outer) for p in inner]
 
     assert map_forked(job, 2, 2) == [[1, 1, 1], [1, 1, 1]]
+
+
+class _Counter:
+    """Counts calls and keeps answers, with the fork protocol of ``map_forked``."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+        self.kept: dict[int, int] = {}
+
+    def ask(self, i: int) -> int:
+        self.calls += 1
+        return self.kept.setdefault(i, i * i)
+
+    def fork_mark(self) -> tuple[int, int]:
+        return self.calls, len(self.kept)
+
+    def fork_delta(self, mark: tuple[int, int]) -> tuple[int, dict[int, int]]:
+        return self.calls - mark[0], dict(list(self.kept.items())[mark[1]:])
+
+    def merge_fork_delta(self, delta: tuple[int, dict[int, int]]) -> None:
+        self.calls += delta[0]
+        self.kept.update(delta[1])
+
+
+def test_what_the_jobs_change_in_keep_ends_in_the_callers_object() -> None:
+    for workers in (1, 2):
+        counter = _Counter()
+        assert map_forked(lambda i, c=counter: c.ask(i) + c.ask(i), 6, workers,
+                          keep=counter) == [2 * i * i for i in range(6)]
+        assert counter.calls == 12
+        assert counter.kept == {i: i * i for i in range(6)}

@@ -18,6 +18,7 @@ from cam.finishing.linking import Envelope, Linker, LinkRules
 from cam.finishing.machine_obstacle import MachineObstacle
 from cam.finishing.order import ordered_passes
 from cam.finishing.run_memo import MadeOperation
+from impeller_cam.processes import map_forked
 from postproc.toolpath import Cutter, MoveKind, Toolpath
 
 if TYPE_CHECKING:
@@ -81,19 +82,29 @@ def finish_toolpaths(result: FinishResult, surfaces: ImpellerSurfaces,
         feed_link=options.feed_link_mm, undriven_allowance=options.undriven_allowance_mm,
         hub=surfaces.hub)
     linker = Linker(scene, kins, rules)
-    out = {}
-    for op, members in result.operations().items():
-        known = None if made is None else made.operation(op, members, tool.name)
-        if known is None:
-            known = MadeOperation(members, tool.name, linker.join(
-                f"finish_{op}", ordered_passes(members, options.zigzag),
-                tool_number=tool.number,
-                cutter=Cutter(tool.diameter, tool.corner_radius, tool.flute_length),
-                spindle_rpm=tool.spindle_rpm))
-            if made is not None:
-                made.operations[op] = known
-        out[op] = known.linked
-    return out
+    operations = result.operations()
+    known: dict[str, MadeOperation | None] = {
+        op: None if made is None else made.operation(op, members, tool.name)
+        for op, members in operations.items()}
+    todo = [op for op, found in known.items() if found is None]
+
+    def link(k: int) -> Linked:
+        return linker.join(f"finish_{todo[k]}", ordered_passes(operations[todo[k]],
+                                                               options.zigzag),
+                           tool_number=tool.number,
+                           cutter=Cutter(tool.diameter, tool.corner_radius, tool.flute_length),
+                           spindle_rpm=tool.spindle_rpm)
+
+    # the operations are linked on forked processes (their links ask the same scene,
+    # nothing else): what the machine model counted and kept comes back (``keep``)
+    keep = scene if getattr(scene, "fork_mark", None) is not None else None
+    linked = map_forked(link, len(todo), costs=[
+        float(sum(len(p.tip) for p in operations[op])) for op in todo], keep=keep)
+    for op, joined in zip(todo, linked, strict=True):
+        known[op] = new = MadeOperation(operations[op], tool.name, joined)
+        if made is not None:
+            made.operations[op] = new
+    return {op: found.linked for op, found in known.items() if found is not None}
 
 
 def check_links(scene: CollisionScene, tool: Tool, toolpath: Toolpath,

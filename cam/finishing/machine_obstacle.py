@@ -116,17 +116,17 @@ class MachineObstacle(SceneWrapper, CollisionScene):
                 "distance_queries": sum(q.queries for q in queries),
                 "seconds": sum(q.seconds for q in queries)}
 
-    # -- what a forked planner hands back (``pass_groups``) --------------------------
+    # -- what a forked planner hands back (``impeller_cam.processes``) ---------------
 
-    def planner_mark(self) -> tuple[dict[str, tuple[int, int, float]], int]:
+    def fork_mark(self) -> tuple[dict[str, tuple[int, int, float]], int]:
         """The planner's query counts per tool and the number of kept answers now."""
         return ({name: (q.poses, q.queries, q.seconds) for name, q in self.queries.items()},
                 len(self._blocked))
 
-    def planner_delta(self, mark: tuple[dict[str, tuple[int, int, float]], int]
+    def fork_delta(self, mark: tuple[dict[str, tuple[int, int, float]], int]
                       ) -> dict[str, Any]:
         """What the planner's queries counted and ``posture_blocked`` kept since ``mark``
-        (``planner_mark``): ``{"tools", "counts", "blocked"}``, to pickle."""
+        (``fork_mark``): ``{"tools", "counts", "blocked"}``, to pickle."""
         counts, kept = mark
         delta = {}
         for name, q in self.queries.items():
@@ -136,8 +136,8 @@ class MachineObstacle(SceneWrapper, CollisionScene):
         return {"tools": tools, "counts": delta,
                 "blocked": dict(list(self._blocked.items())[kept:])}
 
-    def merge_planner_delta(self, delta: dict[str, Any]) -> None:
-        """Add a forked planner's ``planner_delta`` to this obstacle's counts and kept
+    def merge_fork_delta(self, delta: dict[str, Any]) -> None:
+        """Add a forked planner's ``fork_delta`` to this obstacle's counts and kept
         answers, as if its queries had run here."""
         for name, (poses, queries, seconds) in delta["counts"].items():
             q = self.query(delta["tools"][name])

@@ -12,14 +12,13 @@ the costliest (most points) first, and puts the results back in the planners'
 order. The results are those of planning every pass in that order in one process
 (tested): the groups share nothing but the scene, whose answers do not depend on
 what was asked before; what the scene counts or keeps (the machine model's query
-counts and answers, ``MachineObstacle.planner_delta``) is handed back from the
+counts and answers, ``MachineObstacle.fork_delta``) is handed back from the
 children and added in the caller, and a plan memo (``plan_memo.PlanMemo``) is read in
 the children and written in the caller, in the planners' order.
 """
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -138,32 +137,24 @@ def finish_ordered(ordered: Sequence[CutterPath], tool: Tool, kins: Kinematics,
     for i, path in enumerate(ordered):
         groups.setdefault(pass_key(path), []).append(i)
     members = list(groups.values())
-    caller = os.getpid()
-    kept = getattr(scene, "planner_mark", None) is not None  # the scene counts or keeps
+    keep = scene if getattr(scene, "fork_mark", None) is not None else None
 
-    def job(g: int) -> tuple[list[PassPlan], Any]:
-        mark = scene.planner_mark() if kept else None  # type: ignore[attr-defined]
-        plans = _plan_group([ordered[i] for i in members[g]], tool, kins, scene, options,
-                            surfaces, memo)
-        # what a child's scene counted and kept goes back to the caller's
-        if not kept or os.getpid() == caller:
-            return plans, None
-        return plans, scene.planner_delta(mark)  # type: ignore[attr-defined]
+    def job(g: int) -> list[PassPlan]:
+        return _plan_group([ordered[i] for i in members[g]], tool, kins, scene, options,
+                           surfaces, memo)
 
     finished = 0
 
-    def done(g: int, result: tuple[list[PassPlan], Any]) -> None:
+    def done(g: int, plans: list[PassPlan]) -> None:
         nonlocal finished
         finished += len(members[g])
-        if result[1] is not None:
-            scene.merge_planner_delta(result[1])  # type: ignore[attr-defined]
         if progress is not None:
             progress(finished, len(ordered), ordered[members[g][-1]].name)
 
     costs = [float(sum(len(ordered[i]) for i in m)) for m in members]
-    grouped = map_forked(job, len(members), workers, costs, done)
+    grouped = map_forked(job, len(members), workers, costs, done, keep)
     entries: list[PassPlan | None] = [None] * len(ordered)
-    for m, (plans, _) in zip(members, grouped, strict=True):
+    for m, plans in zip(members, grouped, strict=True):
         for i, planned in zip(m, plans, strict=True):
             entries[i] = planned
     results: list[PathResult] = []

@@ -62,8 +62,8 @@ def _plan(s: dict[str, Any], workers: int, memo: PlanMemo) -> tuple[Any, Any, An
     obstacle = s["scene"]()
     done: list[int] = []
     merged: list[Any] = []  # what the children handed back (none from the caller's jobs)
-    merge = obstacle.merge_planner_delta
-    obstacle.merge_planner_delta = lambda delta: (merged.append(delta), merge(delta))
+    merge = obstacle.merge_fork_delta
+    obstacle.merge_fork_delta = lambda delta: (merged.append(delta), merge(delta))
     results, cut_short = finish_ordered(s["ordered"], s["tool"], s["kins"], obstacle,
                                         s["options"], s["surfaces"], memo,
                                         lambda n, total, name: done.append(n), workers)
