@@ -62,6 +62,7 @@ from geometry.spec import load_spec
 from geometry.surfaces import ImpellerSurfaces, build_surfaces
 from impeller_cam.atomic import staged_directory, write_text_atomic
 from impeller_cam.errors import InputError
+from impeller_cam.processes import map_forked
 from impeller_cam.progress import progress_bar
 from postproc.apt import format_apt
 from postproc.kinematics import Kinematics
@@ -169,15 +170,23 @@ def _machine_entry(obstacle: MachineObstacle, result: FinishResult,
         entry["machine_blocked_points"] = blocked
         if blocked:
             blocked_paths.append(path.path.name)
-    operations = {}
+    operations: dict[str, Any] = {}
+    measure = []  # the operations measured here, on forked processes
     for op, (tp, _, _) in toolpaths.items():
         known = None if made is None else made.operations.get(op)
-        if known is None or known.linked[0] is not tp:
-            operations[op] = operation_clearance(obstacle, tools[op], tp)
-            continue
-        if known.machine is None or not made.machine_valid:  # type: ignore[union-attr]
-            known.machine = operation_clearance(obstacle, tools[op], tp)
-        operations[op] = known.machine
+        if known is None or known.linked[0] is not tp \
+                or known.machine is None or not made.machine_valid:  # type: ignore[union-attr]
+            measure.append(op)
+        operations[op] = None if known is None else known.machine
+    found = map_forked(lambda k: operation_clearance(obstacle, tools[measure[k]],
+                                                     toolpaths[measure[k]][0]),
+                       len(measure), costs=[float(len(toolpaths[op][0])) for op in measure],
+                       keep=obstacle)
+    for op, clearance in zip(measure, found, strict=True):
+        operations[op] = clearance
+        known = None if made is None else made.operations.get(op)
+        if known is not None and known.linked[0] is toolpaths[op][0]:
+            known.machine = clearance
     stats = obstacle.stats
     return {"margin_mm": obstacle.margin, "step_mm": obstacle.model.step,
             "paths_blocked": blocked_paths, "operations": operations,

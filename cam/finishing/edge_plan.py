@@ -48,6 +48,7 @@ from cam.finishing.plan_memo import PlanMemo
 from cam.finishing.posture import initial_axes
 from cam.tools import Tool
 from geometry.surfaces import ImpellerSurfaces
+from impeller_cam.processes import map_forked
 from postproc.kinematics import Kinematics
 
 __all__ = ["LEAN_LADDER_DEG", "MIN_LEAN_DEG", "EdgeReport", "lean_at_contact", "plan_edges"]
@@ -156,30 +157,52 @@ def plan_edges(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
     count = blades if options.passages is None else min(options.passages, blades)
     pitch = surfaces.spec.pitch
     report = EdgeReport()
-    start = [0] * len(levels)
     results: list[PathResult] = []
     cut_short = []
     total = count * len(levels)
     done = 0
+
+    def names(i: int) -> list[str]:
+        return [rotate_path(levels[i].path, k, pitch).name if k else levels[i].path.name
+                for k in range(count)]
+
+    def level_plans(i: int) -> list[Any]:
+        """Level ``i`` in every passage: the other passages are near rotations, each
+        starts at the lean rung the one before ended on (None: the memo's plan)."""
+        plans: list[Any] = []
+        start = 0
+        for k, name in enumerate(names(i)):
+            known = None if memo is None else memo.lookup(tool.name, name)
+            plans.append(None if known is not None else _plan_level(
+                levels[i], k, pitch, tool, kins, scene, options, surfaces, start))
+            start = (known if known is not None else plans[-1])[1]
+        return plans
+
+    def level_done(i: int, plans: list[Any]) -> None:
+        nonlocal done
+        done += count
+        if progress is not None:
+            progress(done, total, names(i)[-1])
+
+    # the levels are independent: planned on forked processes (``impeller_cam.
+    # processes``; the machine model's counts and kept answers come back)
+    keep = scene if getattr(scene, "fork_mark", None) is not None else None
+    planned = map_forked(level_plans, len(levels), done=level_done, keep=keep)
     for k in range(count):
-        for i, level in enumerate(levels):
-            name = rotate_path(level.path, k, pitch).name if k else level.path.name
-            known = None if memo is None else memo.recall(tool.name, name)
+        for i in range(len(levels)):
+            name = names(i)[k]
+            known = planned[i][k]
             if known is None:
-                known = _plan_level(level, k, pitch, tool, kins, scene, options, surfaces,
-                                    start[i])
-                if memo is not None:
-                    memo.record(tool.name, name, known)
-            pieces, rung, low, short = known
-            start[i] = rung  # the other passages are near rotations: start there
+                assert memo is not None
+                known = memo.recall(tool.name, name)
+            elif memo is not None:
+                memo.record(tool.name, name, known)
+            pieces, _, low, short = known
             for piece in pieces:
-                report.lean_deg[piece.path.name] = LEAN_LADDER_DEG[rung]
+                report.lean_deg[piece.path.name] = LEAN_LADDER_DEG[known[1]]
                 report.low_lean_points[piece.path.name] = _low_lean(piece)
             results += pieces
             if short is not None:
                 cut_short.append(short)
-            done += 1
-            if progress is not None:
-                progress(done, total, pieces[0].path.name if pieces else level.path.name)
     return FinishResult(results, tool, options, scene_source,
                         extra={"edge": report, "cut_short": cut_short})

@@ -185,9 +185,11 @@ def _finishing_postures(name: str, tool: str, options: dict[str, float]
 
     scene.check_postures = record  # type: ignore[method-assign, assignment]
     kins = kinematics_for(load_machine(ROOT / "fixtures" / "machines" / "xyzac-trt.toml"))
-    plan_finishing(surfaces, resolve_tool(tool), kins, scene,
-                   FinishOptions.from_mapping(dict(options, passages=1)),
-                   scene_source="surfaces", keep=EveryFewPasses())
+    with pytest.MonkeyPatch.context() as patch:  # planned here, where the calls are seen
+        patch.setenv("IMPELLER_CAM_THREADS", "1")
+        plan_finishing(surfaces, resolve_tool(tool), kins, scene,
+                       FinishOptions.from_mapping(dict(options, passages=1)),
+                       scene_source="surfaces", keep=EveryFewPasses())
     scene.check_postures = check  # type: ignore[method-assign]
     return scene, calls
 
