@@ -31,10 +31,18 @@ Then the modules that took the most CPU seconds (``module_seconds``: under loads
 the longest module bounds the wall time from below) and, under xdist, when each
 worker finished and its CPU seconds (``worker_seconds``: the idle tail of the worker
 that finished first is what the schedule loses).
+
+Each xdist worker is one of the machine's CPUs: it runs with ``IMPELLER_CAM_THREADS=1``
+(unless that is set), so the product's threads (the sweep, grid builds) and forked
+processes (the finishing planner, ``impeller_cam.processes``) do not oversubscribe
+the cores the other worker is using (the fast tier ran 182.6 s with them, 175.4 s
+without, on 2 cores). The tests of those parallel paths ask for their threads or
+processes explicitly and compare them with one.
 """
 
 from __future__ import annotations
 
+import os
 import resource
 import time
 from collections.abc import Generator, Iterable
@@ -48,6 +56,11 @@ _CPU_START = pytest.StashKey[float]()
 _CPU_SPENT = pytest.StashKey[float]()
 #: Modules listed in the terminal summary, the most CPU seconds first.
 MODULES_SHOWN = 12
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    if os.environ.get("PYTEST_XDIST_WORKER"):  # one worker, one CPU (module docstring)
+        os.environ.setdefault("IMPELLER_CAM_THREADS", "1")
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
