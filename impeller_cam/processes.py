@@ -18,11 +18,14 @@ An object the jobs change as a side effect (query counters, answers kept for the
 next question) can be handed in as ``keep``: it has ``fork_mark()`` (its state now),
 ``fork_delta(mark)`` (what changed since, to pickle) and ``merge_fork_delta(delta)``
 (add that); each child's delta is merged into the caller's object as its job
-finishes, so the object ends as if every job had run in the caller.
+finishes, so the object ends as if every job had run in the caller. Its optional
+``fork_prepare()`` builds, before the fork, what every child would otherwise build
+for itself (what is built on first use and is not picklable: fcl objects).
 """
 
 from __future__ import annotations
 
+import logging
 import multiprocessing
 import os
 from collections.abc import Callable, Sequence
@@ -34,6 +37,8 @@ from impeller_cam.threads import default_threads
 __all__ = ["map_forked"]
 
 T = TypeVar("T")
+
+_LOG = logging.getLogger(__name__)
 
 #: The job function of the pool being run (inherited by its forked children).
 _JOB: Callable[[int], Any] | None = None
@@ -51,7 +56,8 @@ def _run(index: int) -> tuple[int, bool, Any]:
 
 def map_forked(job: Callable[[int], T], count: int, workers: int | None = None,
                costs: Sequence[float] | None = None,
-               done: Callable[[int, T], None] | None = None, keep: Any = None) -> list[T]:
+               done: Callable[[int, T], None] | None = None, keep: Any = None,
+               prepare: Callable[[], None] | None = None) -> list[T]:
     """``[job(0), ..., job(count - 1)]``, the jobs run on up to ``workers`` forked
     processes.
 
@@ -71,7 +77,11 @@ def map_forked(job: Callable[[int], T], count: int, workers: int | None = None,
     done : callable, optional
         ``done(i, result)``, called in the caller as each job finishes (any order).
     keep : object, optional
-        What the jobs change and the caller keeps (module docstring).
+        What the jobs change and the caller keeps (module docstring); its
+        ``fork_prepare()``, when it has one, runs before the fork.
+    prepare : callable, optional
+        Called in the caller before it forks (not with one worker): build there what
+        every job would build for itself.
 
     Returns
     -------
@@ -86,7 +96,10 @@ def map_forked(job: Callable[[int], T], count: int, workers: int | None = None,
     size = min(count, default_threads() if workers is None else int(workers))
     results: dict[int, Any] = {}
     left = order
-    if size > 1 and "fork" in multiprocessing.get_all_start_methods() and _JOB is None:
+    forked = size > 1 and "fork" in multiprocessing.get_all_start_methods() and _JOB is None
+    if forked:
+        if prepare is not None:
+            prepare()
         _JOB = job
         try:
             left = []
@@ -111,8 +124,12 @@ def map_forked(job: Callable[[int], T], count: int, workers: int | None = None,
         finally:
             _JOB = None
         left.sort(key=order.index)
+    failed = set(left) if forked else set()
     for index in left:  # one worker, no fork, or what failed in a child
         results[index] = job(index)
+        if index in failed:  # it raised there, or its result did not come back
+            _LOG.warning("job %d of %d failed in a forked process and ran in the caller",
+                         index, count)
         if done is not None:
             done(index, results[index])
     return [results[i] for i in range(count)]
@@ -135,4 +152,5 @@ def _map_keeping(job: Callable[[int], T], count: int, workers: int | None,
         if done is not None:
             done(i, result[0])
 
-    return [value for value, _ in map_forked(marked, count, workers, costs, merged)]
+    return [value for value, _ in map_forked(marked, count, workers, costs, merged,
+                                             prepare=getattr(keep, "fork_prepare", None))]

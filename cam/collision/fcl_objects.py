@@ -33,6 +33,11 @@ class RoleObjects(Mapping[str, fcl.CollisionObject]):
                                                     fcl.Transform())
         return self._built[role]
 
+    @property
+    def built(self) -> list[str]:
+        """The roles whose objects are built."""
+        return list(self._built)
+
     def __iter__(self) -> Iterator[str]:
         return iter(self._meshes)
 

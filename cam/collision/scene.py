@@ -35,9 +35,10 @@ catches the crossing within its stated bound).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import partial
+from typing import Any
 
 import fcl
 import numpy as np
@@ -239,6 +240,48 @@ class CollisionScene:
                 bvh_model(merged.vertices, merged.faces), fcl.Transform()
             )
         return self._whole_object
+
+    # -- what is built on first use (``impeller_cam.processes``: a fork inherits it) --
+
+    def built(self) -> tuple[frozenset[str], bool, frozenset[tuple[Tool, float]]]:
+        """The roles whose fcl objects, whether the merged object, and the tool models
+        ``(tool, cutter offset)`` this scene has built so far."""
+        return (frozenset(self.objects.built), self._whole_object is not None,
+                frozenset(self._tools))
+
+    def build(self, roles: Iterable[str], whole: bool,
+              tools: Iterable[tuple[Tool, float]]) -> None:
+        """Build what ``built`` names (a forked process's, handed back), here."""
+        for role in roles:
+            self.objects[role]  # noqa: B018 (built on access)
+        if whole:
+            self.whole_object  # noqa: B018
+        for tool, offset in tools:
+            self.tool_model(tool, offset)
+
+    def fork_prepare(self) -> None:
+        """Build the fcl objects of every role of the scenes within this one before
+        a fork (the forked processes would each build them, and this one again)."""
+        for scene in scenes_within(self):
+            scene.build(scene.roles, False, ())
+
+    def fork_mark(self) -> Any:
+        """What the scenes within this one (``scenes_within``) have built, now (the
+        fork protocol of ``impeller_cam.processes.map_forked``)."""
+        return [scene.built() for scene in scenes_within(self)]
+
+    def fork_delta(self, mark: Any) -> Any:
+        """What they built since ``mark``, to pickle."""
+        new = []
+        for scene, (roles0, whole0, tools0) in zip(scenes_within(self), mark, strict=True):
+            roles, whole, tools = scene.built()
+            new.append((roles - roles0, whole and not whole0, tools - tools0))
+        return new
+
+    def merge_fork_delta(self, delta: Any) -> None:
+        """Build here what a forked process built (the next fork inherits it)."""
+        for scene, (roles, whole, tools) in zip(scenes_within(self), delta, strict=True):
+            scene.build(roles, whole, tools)
 
     # -- tool models ---------------------------------------------------------------
 
@@ -493,3 +536,18 @@ def _merged(inner: PostureReport, between: NDArray[np.bool_], ends: PostureRepor
         collides[index], part[index] = source.collides, source.part
         clear[index], roles[index] = source.clearance, np.array(source.hit_role, dtype=object)
     return PostureReport(collides, part, roles.tolist(), clear, 0.0, inner.checks)
+
+
+def scenes_within(scene: Any) -> list[CollisionScene]:
+    """The collision scenes that hold meshes within ``scene`` (itself, or what its
+    wrappers wrap: ``inner``, ``design``, the in-process ``stock``), each once, in a
+    fixed order."""
+    found: list[CollisionScene] = []
+    todo: list[Any] = [scene]
+    while todo:
+        item = todo.pop(0)
+        own = vars(item)
+        if "objects" in own and not any(item is f for f in found):
+            found.append(item)
+        todo += [own[name] for name in ("inner", "design", "stock") if name in own]
+    return found

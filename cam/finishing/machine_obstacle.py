@@ -118,27 +118,31 @@ class MachineObstacle(SceneWrapper, CollisionScene):
 
     # -- what a forked planner hands back (``impeller_cam.processes``) ---------------
 
-    def fork_mark(self) -> tuple[dict[str, tuple[int, int, float]], int]:
-        """The planner's query counts per tool and the number of kept answers now."""
+    def fork_mark(self) -> Any:
+        """The planner's query counts per tool, the number of kept answers and what the
+        wrapped scenes have built, now."""
         return ({name: (q.poses, q.queries, q.seconds) for name, q in self.queries.items()},
-                len(self._blocked))
+                len(self._blocked), CollisionScene.fork_mark(self))
 
-    def fork_delta(self, mark: tuple[dict[str, tuple[int, int, float]], int]
-                      ) -> dict[str, Any]:
-        """What the planner's queries counted and ``posture_blocked`` kept since ``mark``
-        (``fork_mark``): ``{"tools", "counts", "blocked"}``, to pickle."""
-        counts, kept = mark
+    def fork_delta(self, mark: Any) -> Any:
+        """What the planner's queries counted, ``posture_blocked`` kept and the wrapped
+        scenes built since ``mark`` (``fork_mark``): ``{"tools", "counts", "blocked",
+        "built"}``, to pickle."""
+        counts, kept, built = mark
         delta = {}
         for name, q in self.queries.items():
             poses, queries, seconds = counts.get(name, (0, 0, 0.0))
             delta[name] = (q.poses - poses, q.queries - queries, q.seconds - seconds)
         tools = {name: self._planner_tools[name] for name in delta}
-        return {"tools": tools, "counts": delta,
-                "blocked": dict(list(self._blocked.items())[kept:])}
+        new = CollisionScene.fork_delta(self, built)
+        tools.update({name: self._planner_tools[name] for name in self.every})
+        return {"tools": tools, "counts": delta, "every": list(self.every),
+                "blocked": dict(list(self._blocked.items())[kept:]), "built": new}
 
-    def merge_fork_delta(self, delta: dict[str, Any]) -> None:
+    def merge_fork_delta(self, delta: Any) -> None:
         """Add a forked planner's ``fork_delta`` to this obstacle's counts and kept
-        answers, as if its queries had run here."""
+        answers, as if its queries had run here, and build here what it built (the
+        next fork inherits it instead of building it again)."""
         for name, (poses, queries, seconds) in delta["counts"].items():
             q = self.query(delta["tools"][name])
             q.poses += poses
@@ -146,6 +150,9 @@ class MachineObstacle(SceneWrapper, CollisionScene):
             q.seconds += seconds
         for key, value in delta["blocked"].items():
             self._blocked.setdefault(key, value)
+        for name in delta["every"]:
+            self.query_every(delta["tools"][name])
+        CollisionScene.merge_fork_delta(self, delta["built"])
 
     # -- checks ------------------------------------------------------------------------
 
