@@ -260,10 +260,14 @@ class CollisionScene:
             self.tool_model(tool, offset)
 
     def fork_prepare(self) -> None:
-        """Build the fcl objects of every role of the scenes within this one before
-        a fork (the forked processes would each build them, and this one again)."""
-        for scene in scenes_within(self):
-            scene.build(scene.roles, False, ())
+        """Before a fork: build the fcl objects of the in-process stock's mesh (a
+        wrapper's ``stock`` scene), which the forked processes would each build, and
+        this one again after them. Its objects are asked for wherever material is
+        near (every chain run builds them); the design's only where the exact phase
+        cannot decide (often never), so those are left to be built on first use
+        (and built here after a fork that did: ``merge_fork_delta``)."""
+        for stock in scenes_within(self, via="stock"):
+            stock.build(stock.roles, False, ())
 
     def fork_mark(self) -> Any:
         """What the scenes within this one (``scenes_within``) have built, now (the
@@ -538,16 +542,18 @@ def _merged(inner: PostureReport, between: NDArray[np.bool_], ends: PostureRepor
     return PostureReport(collides, part, roles.tolist(), clear, 0.0, inner.checks)
 
 
-def scenes_within(scene: Any) -> list[CollisionScene]:
+def scenes_within(scene: Any, via: str | None = None) -> list[CollisionScene]:
     """The collision scenes that hold meshes within ``scene`` (itself, or what its
     wrappers wrap: ``inner``, ``design``, the in-process ``stock``), each once, in a
-    fixed order."""
+    fixed order; ``via``: only those reached through that attribute."""
     found: list[CollisionScene] = []
-    todo: list[Any] = [scene]
+    todo: list[tuple[Any, str | None]] = [(scene, None)]
     while todo:
-        item = todo.pop(0)
+        item, name = todo.pop(0)
         own = vars(item)
-        if "objects" in own and not any(item is f for f in found):
+        if "objects" in own and (via is None or name == via) \
+                and not any(item is f for f in found):
             found.append(item)
-        todo += [own[name] for name in ("inner", "design", "stock") if name in own]
+        todo += [(own[n], n) for n in ("inner", "design", "stock")
+                 if own.get(n) is not None]
     return found

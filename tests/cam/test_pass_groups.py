@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from cam.collision import CollisionScene
+from cam.collision.scene import scenes_within
 from cam.finishing.command import _machine_obstacle
 from cam.finishing.options import FinishOptions, scallop_stepover
 from cam.finishing.pass_groups import finish_ordered, pass_key
@@ -102,7 +103,28 @@ def test_forked_groups_give_the_plans_counts_and_memo_of_one_process(
     # what the children's machine queries counted and kept came back
     assert scene_one.stats["poses"] == scene_two.stats["poses"] > 0
     assert scene_one.stats["distance_queries"] == scene_two.stats["distance_queries"]
+    # and what the children built on first use was built here too (tool models, the
+    # scenes' fcl objects): the next fork inherits it
+    assert [s.built() for s in scenes_within(scene_one)] == \
+        [s.built() for s in scenes_within(scene_two)]
     assert set(scene_one._blocked) == set(scene_two._blocked)
     for key, blocked in scene_one._blocked.items():
         assert np.array_equal(blocked, scene_two._blocked[key])
     assert len(earlier) == len(one)
+
+
+def test_scenes_within_finds_each_meshed_scene_once_and_skips_an_absent_stock(
+        setup: dict[str, Any]) -> None:
+    class Wrapper:  # as StockScene: the design inside, no in-process stock left
+        def __init__(self, inner: Any, stock: Any) -> None:
+            self.inner = self.design = inner
+            self.stock = stock
+
+    obstacle = setup["scene"]()
+    design = scenes_within(obstacle)
+    assert len(design) == 1 and isinstance(design[0], CollisionScene)
+    assert scenes_within(Wrapper(design[0], None)) == design
+    assert scenes_within(Wrapper(design[0], None), via="stock") == []
+    stock = CollisionScene({"stock": design[0].meshes["hub"]})
+    assert scenes_within(Wrapper(design[0], stock)) == [design[0], stock]
+    assert scenes_within(Wrapper(design[0], stock), via="stock") == [stock]
