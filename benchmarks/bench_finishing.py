@@ -11,8 +11,9 @@ In one invocation, on nine_blade at the main job's settings (the spec's
 2. with this tree's code in a second child process,
 
 and prints per side the finish stage's wall and CPU time (the child's process
-time: robust to a shared machine), points, cost per point, A/C reversals and
-collisions, then the ratios and whether the APT files are byte-identical.
+time and that of the processes it forked: robust to a shared machine), points, cost
+per point, A/C reversals and collisions, then the ratios and whether the APT files
+are byte-identical.
 Independently of the planner's scene, every APT pose of this tree's programs is
 then re-checked with python-fcl against the geometry stage's STL
 (``Impeller.export_stl``, read back from the file): the cutter shrunk by the
@@ -73,6 +74,15 @@ def main_job_settings(spec: Path) -> tuple[str, dict[str, Any]]:
     return str(machining["finish_tool"]), options
 
 
+def _cpu() -> float:
+    """CPU seconds of this process and of the processes it forked and waited for (the
+    planner's pass groups, ``impeller_cam.processes``)."""
+    import resource
+
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
+
+
 def edge_child(spec: Path, machine: Path, tool_name: str, options: dict[str, Any]) -> None:
     """Plan the edge passes alone (``plan_edges`` of whichever module the tree has) and
     print a JSON line: CPU and wall of the planning only (the scene is built first)."""
@@ -131,9 +141,9 @@ def child(out: Path, tool: str, options: dict[str, Any]) -> None:
         edge_child(spec, machine, tool, options)
         return
     commit = tree_commit(tree)
-    wall, cpu = time.perf_counter(), time.process_time()
+    wall, cpu = time.perf_counter(), _cpu()
     doc = run_finish(spec, machine, tool, out, progress=False, plots=False, **options)
-    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    wall, cpu = time.perf_counter() - wall, _cpu() - cpu
     s = doc["summary"]
     print(json.dumps({"wall": wall, "cpu": cpu, "points": s["points"], "paths": s["paths"],
                       "reversals_after": s["reversals_after"], "collisions": s["collisions"],
