@@ -115,8 +115,11 @@ def _maxrss_kb() -> int:
 
 
 def _cpu_seconds() -> float:
+    """User + system seconds of this process and of the processes it forked and
+    waited for (the finishing planner's, ``impeller_cam.processes``)."""
     usage = resource.getrusage(resource.RUSAGE_SELF)
-    return float(usage.ru_utime + usage.ru_stime)
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return float(usage.ru_utime + usage.ru_stime + children.ru_utime + children.ru_stime)
 
 
 class MemoryMeter:
