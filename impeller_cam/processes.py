@@ -77,8 +77,9 @@ def map_forked(job: Callable[[int], T], count: int, workers: int | None = None,
     done : callable, optional
         ``done(i, result)``, called in the caller as each job finishes (any order).
     keep : object, optional
-        What the jobs change and the caller keeps (module docstring); its
-        ``fork_prepare()``, when it has one, runs before the fork.
+        What the jobs change and the caller keeps (module docstring; an object
+        without ``fork_mark`` is ignored); its ``fork_prepare()``, when it has one,
+        runs before the fork.
     prepare : callable, optional
         Called in the caller before it forks (not with one worker): build there what
         every job would build for itself.
@@ -89,7 +90,7 @@ def map_forked(job: Callable[[int], T], count: int, workers: int | None = None,
         The jobs' results in the jobs' order.
     """
     global _JOB
-    if keep is not None:
+    if getattr(keep, "fork_mark", None) is not None:
         return _map_keeping(job, count, workers, costs, done, keep)
     order = list(range(count)) if costs is None else sorted(range(count),
                                                              key=lambda i: -costs[i])

@@ -86,3 +86,4 @@ def test_what_the_jobs_change_in_keep_ends_in_the_callers_object() -> None:
                           keep=counter) == [2 * i * i for i in range(6)]
         assert counter.calls == 12
         assert counter.kept == {i: i * i for i in range(6)}
+    assert map_forked(lambda i: i, 3, 2, keep=object()) == [0, 1, 2]  # no protocol: ignored

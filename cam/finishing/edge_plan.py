@@ -186,8 +186,7 @@ def plan_edges(surfaces: ImpellerSurfaces, tool: Tool, kins: Kinematics,
 
     # the levels are independent: planned on forked processes (``impeller_cam.
     # processes``; the machine model's counts and kept answers come back)
-    keep = scene if getattr(scene, "fork_mark", None) is not None else None
-    planned = map_forked(level_plans, len(levels), done=level_done, keep=keep)
+    planned = map_forked(level_plans, len(levels), done=level_done, keep=scene)
     for k in range(count):
         for i in range(len(levels)):
             name = names(i)[k]

@@ -97,9 +97,8 @@ def finish_toolpaths(result: FinishResult, surfaces: ImpellerSurfaces,
 
     # the operations are linked on forked processes (their links ask the same scene,
     # nothing else): what the machine model counted and kept comes back (``keep``)
-    keep = scene if getattr(scene, "fork_mark", None) is not None else None
     linked = map_forked(link, len(todo), costs=[
-        float(sum(len(p.tip) for p in operations[op])) for op in todo], keep=keep)
+        float(sum(len(p.tip) for p in operations[op])) for op in todo], keep=scene)
     for op, joined in zip(todo, linked, strict=True):
         known[op] = new = MadeOperation(operations[op], tool.name, joined)
         if made is not None:

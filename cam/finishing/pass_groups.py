@@ -137,7 +137,6 @@ def finish_ordered(ordered: Sequence[CutterPath], tool: Tool, kins: Kinematics,
     for i, path in enumerate(ordered):
         groups.setdefault(pass_key(path), []).append(i)
     members = list(groups.values())
-    keep = scene if getattr(scene, "fork_mark", None) is not None else None
 
     def job(g: int) -> list[PassPlan]:
         return _plan_group([ordered[i] for i in members[g]], tool, kins, scene, options,
@@ -152,7 +151,7 @@ def finish_ordered(ordered: Sequence[CutterPath], tool: Tool, kins: Kinematics,
             progress(finished, len(ordered), ordered[members[g][-1]].name)
 
     costs = [float(sum(len(ordered[i]) for i in m)) for m in members]
-    grouped = map_forked(job, len(members), workers, costs, done, keep)
+    grouped = map_forked(job, len(members), workers, costs, done, keep=scene)
     entries: list[PassPlan | None] = [None] * len(ordered)
     for m, plans in zip(members, grouped, strict=True):
         for i, planned in zip(m, plans, strict=True):
