@@ -244,14 +244,33 @@ class CollisionScene:
     # -- what is built on first use (``impeller_cam.processes``: a fork inherits it) --
 
     def built(self) -> tuple[frozenset[str], bool, frozenset[tuple[Tool, float]]]:
-        """The roles whose fcl objects, whether the merged object, and the tool models
-        ``(tool, cutter offset)`` this scene has built so far."""
+        """What this scene has built on first use so far.
+
+        Returns
+        -------
+        roles : frozenset of str
+            The roles whose fcl objects are built.
+        whole : bool
+            Whether the merged object is.
+        tools : frozenset of (Tool, float)
+            The tool models, by tool and cutter offset (mm).
+        """
         return (frozenset(self.objects.built), self._whole_object is not None,
                 frozenset(self._tools))
 
     def build(self, roles: Iterable[str], whole: bool,
               tools: Iterable[tuple[Tool, float]]) -> None:
-        """Build what ``built`` names (a forked process's, handed back), here."""
+        """Build here what ``built`` names (what a forked process built).
+
+        Parameters
+        ----------
+        roles : iterable of str
+            Roles whose fcl objects to build.
+        whole : bool
+            Build the merged object.
+        tools : iterable of (Tool, float)
+            Tool models to build, by tool and cutter offset (mm).
+        """
         for role in roles:
             self.objects[role]  # noqa: B018 (built on access)
         if whole:
@@ -271,11 +290,28 @@ class CollisionScene:
 
     def fork_mark(self) -> Any:
         """What the scenes within this one (``scenes_within``) have built, now (the
-        fork protocol of ``impeller_cam.processes.map_forked``)."""
+        fork protocol of ``impeller_cam.processes.map_forked``).
+
+        Returns
+        -------
+        list
+            ``built()`` of each scene within.
+        """
         return [scene.built() for scene in scenes_within(self)]
 
     def fork_delta(self, mark: Any) -> Any:
-        """What they built since ``mark``, to pickle."""
+        """What the scenes within this one built since ``mark``.
+
+        Parameters
+        ----------
+        mark : list
+            ``fork_mark()`` as it was.
+
+        Returns
+        -------
+        list
+            Per scene, what ``build`` takes (picklable).
+        """
         new = []
         for scene, (roles0, whole0, tools0) in zip(scenes_within(self), mark, strict=True):
             roles, whole, tools = scene.built()
@@ -283,7 +319,13 @@ class CollisionScene:
         return new
 
     def merge_fork_delta(self, delta: Any) -> None:
-        """Build here what a forked process built (the next fork inherits it)."""
+        """Build here what a forked process built (the next fork inherits it).
+
+        Parameters
+        ----------
+        delta : list
+            That process's ``fork_delta``.
+        """
         for scene, (roles, whole, tools) in zip(scenes_within(self), delta, strict=True):
             scene.build(roles, whole, tools)
 
