@@ -133,11 +133,11 @@ class MachineObstacle(SceneWrapper, CollisionScene):
         for name, q in self.queries.items():
             poses, queries, seconds = counts.get(name, (0, 0, 0.0))
             delta[name] = (q.poses - poses, q.queries - queries, q.seconds - seconds)
+        # ``query_every`` asks ``query`` first: its tools are among ``delta``'s
         tools = {name: self._planner_tools[name] for name in delta}
-        new = CollisionScene.fork_delta(self, built)
-        tools.update({name: self._planner_tools[name] for name in self.every})
         return {"tools": tools, "counts": delta, "every": list(self.every),
-                "blocked": dict(list(self._blocked.items())[kept:]), "built": new}
+                "blocked": dict(list(self._blocked.items())[kept:]),
+                "built": CollisionScene.fork_delta(self, built)}
 
     def merge_fork_delta(self, delta: Any) -> None:
         """Add a forked planner's ``fork_delta`` to this obstacle's counts and kept
