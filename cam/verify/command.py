@@ -477,7 +477,11 @@ def _surface_deviation(vertices: NDArray[np.float64], deviation: Deviation
 
     if len(vertices) == 0 or len(deviation.points) == 0:
         return None
-    _, nearest = cKDTree(deviation.points).query(vertices)
+    # sliding-midpoint tree without shrunk boxes: built in about a third of the time of
+    # the default (median splits) over the tens of millions of samples of a finished
+    # stock; a vertex equidistant from two samples may take the other one's colour
+    tree = cKDTree(deviation.points, balanced_tree=False, compact_nodes=False)
+    _, nearest = tree.query(vertices)
     return np.asarray(deviation.distance[nearest])
 
 
