@@ -449,7 +449,7 @@ def _verify_rest(ctx: Context, rough: RoughStock, document: dict[str, Any],
         deviation = run_verify(programs, ctx.machine, ctx.settings.finish_tool, str(start),
                                ctx.spec, ctx.settings.verify_resolution_mm, stage,
                                options=VerifyOptions(allowance=allowance,
-                                                     render_each_program=False),
+                                                     render_each_program=False, record=True),
                                progress=False, design_distance=rough.distance,
                                initial_stock=Stock.load(start))
     except BaseException:

@@ -11,7 +11,9 @@ are written together into ``verify/`` (all or nothing):
   the finish NC files, each with its tool (the finishing tool; the
   fillet program with the fillet tool), starting from the stock the rough run left
   (handed over in memory; ``verify/rough/stock.npz`` is that stock as saved);
-  allowance = finishing scallop;
+  allowance = finishing scallop. The rest programs are not swept again: the finish
+  stage's run of them on the same rough stock (``verify/rest``, its ``swept.json``)
+  is taken over (``cam.verify.swept``), with the same results;
 * ``verify/rest``: the finish stage's verification of the rest programs on the rough
   stock (``cam.run.rest``), kept as it was (the stock finishing planned against);
 * ``verify/regions.json``: the deviation of the rough and the finished stock per face
@@ -117,12 +119,15 @@ def verify_chain(ctx: Context) -> dict[str, Any]:
                 options=VerifyOptions(allowance=allow["rough"], render_each_program=False,
                                       refuse_short_stock=True),
                 progress=False, design_distance=design.distance, initial_stock=stock)
+        # the rest programs' run on the same rough stock file is taken over when its
+        # record matches (cam/verify/swept.py): they are not swept a second time
         finish_deviation = run_verify(
             finish, ctx.machine, finish_tools, str(ctx.out / "verify" / "rough" / "stock.npz"),
             ctx.spec, resolution, stage / "finish",
             options=VerifyOptions(allowance=allow["finish"], render_each_program=False),
             progress=False, design_distance=design.distance, initial_stock=stock,
-            previous=rough_deviation)
+            previous=rough_deviation,
+            resume_from=rest if reused is not None and rest.is_dir() else None)
         assert rough_deviation is not None and finish_deviation is not None
         regions = {
             "format": "impeller-cam regions 2",

@@ -18,8 +18,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cam.verify.deviation import DesignDistance, Deviation, grouped_extremes, sample_deviation
-from cam.verify.events import EVENT_TYPES, Event, sort_events
+from cam.verify.deviation import DesignDistance, Deviation, sample_deviation
+from cam.verify.events import (
+    EVENT_TYPES,
+    Event,
+    capped,
+    deviation_events,
+    motion_events,
+    sort_events,
+)
 from cam.verify.machine_check import (
     check_program,
     machine_scene_for,
@@ -30,18 +37,16 @@ from cam.verify.machine_check import (
 from cam.verify.motion import program_moves
 from cam.verify.sources import load_design, load_stock
 from cam.verify.stock import Stock
+from cam.verify.swept import SWEPT, file_digest, record, resume
 from cam.verify.toolshape import tool_shape
 from impeller_cam.atomic import staged_directory, write_bytes_atomic, write_text_atomic
 from impeller_cam.errors import InputError
 from impeller_cam.progress import progress_bar
 from impeller_cam.tolerances import DEFAULT_TOLERANCES
-from postproc.program import Motion
 
 #: Sub-moves swept per kernel call (progress granularity; each call also scans the
 #: grids once for their material bounds, so fewer calls cost less).
 BATCH = 20000
-#: Events of one type per program kept in the outputs (largest first).
-MAX_EVENTS_PER_TYPE = 200
 
 
 @dataclass(frozen=True)
@@ -72,6 +77,9 @@ class VerifyOptions:
         Raise ``InputError`` (nothing written) when the initial stock is short of the
         design (``stock_short`` events) instead of reporting it: the chain verifying
         its own blank.
+    record : bool
+        Also write ``swept.json`` (``cam.verify.swept``): what each program found,
+        exactly, for a later run that begins with the same programs to take over.
     """
 
     sweep_tolerance: float | None = None
@@ -81,8 +89,7 @@ class VerifyOptions:
     render: bool = True
     render_each_program: bool = True
     refuse_short_stock: bool = False
-
-
+    record: bool = False
 
 
 def _check_inputs(programs: list[Path], resolution: float) -> None:
@@ -125,69 +132,6 @@ def _sweep_program(
     return per_block
 
 
-def _motion_events(
-    name: str, program: Any, moves: Any, per_block: NDArray[np.float64], contact: float
-) -> list[Event]:
-    events: list[Event] = []
-    rapid = program.motion == int(Motion.RAPID)
-    for b in np.flatnonzero(rapid & (per_block[:, 1] > contact)):
-        events.append(Event(
-            "rapid_in_stock", int(program.line[b]), name, tuple(moves.end_tip[b]),
-            float(per_block[b, 1]),
-            f"rapid move cuts stock: {per_block[b, 0]:.3f} mm3 removed, "
-            f"{per_block[b, 1]:.3f} mm deep along a dexel",
-            {"removed_volume_mm3": float(per_block[b, 0])},
-        ))
-    for b in np.flatnonzero(per_block[:, 2] > contact):
-        events.append(Event(
-            "holder_collision", int(program.line[b]), name, tuple(moves.end_tip[b]),
-            float(per_block[b, 2]),
-            f"shank or holder runs {per_block[b, 2]:.3f} mm into the stock",
-        ))
-    for found in moves.overtravel:
-        b = found["block"]
-        past = abs(found["value"] - found["limit"])
-        events.append(Event(
-            "overtravel", int(program.line[b]), name, tuple(moves.end_tip[b]), past,
-            f"axis {found['axis']} reaches {found['value']:.4f} {found['unit']}, "
-            f"beyond its limit {found['limit']:.4f} {found['unit']}",
-            {"axis": found["axis"], "limit": found["limit"], "value": found["value"]},
-        ))
-    return events
-
-
-def _deviation_events(
-    deviation: Deviation,
-    owners: list[tuple[str, int]],
-    gouge_tol: float,
-    allowance: float,
-    last_program: str,
-) -> list[Event]:
-    events: list[Event] = []
-    key = deviation.moves.astype(np.int64)
-    gouge = grouped_extremes(
-        (deviation.distance < -gouge_tol) & (key >= 0), key, -deviation.distance
-    )
-    for move, i, depth in gouge:
-        name, line = owners[move]
-        events.append(Event(
-            "gouge", line, name, tuple(deviation.points[i]), depth,
-            f"material removed {depth:.3f} mm inside the design surface",
-        ))
-    excess = grouped_extremes(
-        deviation.distance > allowance + gouge_tol, key, deviation.distance
-    )
-    for move, i, amount in excess:
-        name, line = owners[move] if move >= 0 else (last_program, 0)
-        where = "left by this block" if move >= 0 else "never machined"
-        events.append(Event(
-            "excess", line, name, tuple(deviation.points[i]), amount,
-            f"{amount:.3f} mm of material left outside the design ({where}), "
-            f"allowance {allowance:.3f} mm",
-        ))
-    return events
-
-
 def _short_stock(work: Stock, distance: DesignDistance, opts: VerifyOptions, program: str,
                  stock: str) -> list[Event]:
     """``stock_short`` events of the initial stock (``cam.verify.shortfall``); with
@@ -212,19 +156,6 @@ def _short_stock(work: Stock, distance: DesignDistance, opts: VerifyOptions, pro
     return found
 
 
-def _cap(events: list[Event]) -> tuple[list[Event], dict[str, int]]:
-    """Keep the largest MAX_EVENTS_PER_TYPE events per program and type."""
-    counts: dict[str, int] = {t: 0 for t in EVENT_TYPES}
-    kept: list[Event] = []
-    groups: dict[tuple[str, str], list[Event]] = {}
-    for event in events:
-        counts[event.type] += 1
-        groups.setdefault((event.program, event.type), []).append(event)
-    for group in groups.values():
-        kept.extend(sorted(group, key=lambda e: -e.amount)[:MAX_EVENTS_PER_TYPE])
-    return kept, counts
-
-
 def run_verify(
     programs: list[Path],
     machine: Path,
@@ -239,6 +170,7 @@ def run_verify(
     design_distance: DesignDistance | None = None,
     initial_stock: Stock | None = None,
     previous: Deviation | None = None,
+    resume_from: Path | None = None,
 ) -> Deviation | None:
     """Verify NC programs in sequence on one stock; write the results into ``out``.
 
@@ -276,6 +208,12 @@ def run_verify(
         The deviation of ``initial_stock`` as it was handed in (what the run that left
         it returned): the ends no program of this run changes keep its distances
         (``cam.verify.deviation.sample_deviation``), the same answers, queried once.
+    resume_from : Path, optional
+        The folder of an earlier run (``VerifyOptions.record``) that may have swept the
+        first programs from the same ``stock`` file: when its record matches
+        (``cam.verify.swept.resume``), this run starts from that run's final stock and
+        reports those programs from its record, with the results of sweeping them
+        (only with ``render_each_program`` off: the stock between them is not kept).
 
     Returns
     -------
@@ -308,11 +246,21 @@ def run_verify(
     design_mesh = (load_design(design) if design is not None and design_distance is None
                    else None)
     work = load_stock(stock, resolution) if initial_stock is None else initial_stock
+    start = work  # the stock this run starts from (a resumed run: its head's start)
     sweep_tol = opts.sweep_tolerance or 0.1 * work.pitch
+    settings = {"resolution_mm": work.pitch, "sweep_tolerance_mm": sweep_tol,
+                "contact_tolerance_mm": opts.contact_tolerance, "render": opts.render,
+                "machine_sha256": file_digest(machine)}
+    swept = None
+    if resume_from is not None and not opts.render_each_program and Path(stock).is_file():
+        swept = resume(Path(resume_from), programs, [t.name for t in the_tools], start,
+                       Path(stock), settings)
+        if swept is not None:
+            work = Stock.load(Path(resume_from) / "stock.npz")
     # one machine scene per tool (the holder and tool solids ride on the spindle)
-    scenes = {t.name: machine_scene_for(the_machine, t, work) for t in the_tools}
+    scenes = {t.name: machine_scene_for(the_machine, t, start) for t in the_tools}
     scene = scenes[the_tools[0].name] if the_tools else None
-    initial = work.volume()
+    initial = start.volume()
     distance: DesignDistance | None = design_distance
     spec_allowance: float | None = None
     if design_mesh is not None:
@@ -324,7 +272,10 @@ def run_verify(
         # a saved state was checked when its own initial stock was
         events.extend(_short_stock(work, distance, opts, programs[0].name, stock))
     owners: list[tuple[str, int]] = list(work.owners)  # blocks of earlier runs first
-    earlier = len(owners)
+    earlier = len(start.owners)
+    head = 0 if swept is None else len(swept.programs)
+    durations: list[float] = []  # exact, for the record
+    machine_pngs: list[str] = []
     summaries: list[dict[str, Any]] = []
     images: list[tuple[str, bytes]] = []
     renders: dict[str, bytes] = {}
@@ -337,12 +288,23 @@ def run_verify(
         for index, (path, program) in enumerate(zip(programs, read, strict=True)):
             shape = shapes[index]
             scene = scenes[the_tools[index].name]
+            if swept is not None and index < head:  # swept by the recorded run
+                summaries.append(swept.summaries[index])
+                durations.append(swept.durations[index])
+                cycle += swept.durations[index]
+                events.extend(e for e in swept.events if e.program == path.name)
+                png = swept.renders[index]
+                machine_pngs.append(f"machine_{index + 1}_{path.stem}.png" if png else "")
+                if opts.render and png:
+                    renders[machine_pngs[-1]] = png
+                    images.append((f"machine at the smallest clearance of {path.name}", png))
+                continue
             moves = program_moves(program, the_machine, kins, shape.reach, sweep_tol)
             before = work.volume()
             per_block = _sweep_program(work, moves, shape, len(owners), bar, path.name)
             owners.extend((path.name, int(line)) for line in program.line)
             after = work.volume()
-            program_events = _motion_events(
+            program_events = motion_events(
                 path.name, program, moves, per_block, opts.contact_tolerance
             )
             machine_check = None
@@ -352,6 +314,8 @@ def run_verify(
             events.extend(sort_events(program_events))
             duration = float(moves.duration.sum())
             cycle += duration
+            durations.append(duration)
+            machine_pngs.append("")
             summaries.append({
                 "name": path.name,
                 "blocks": len(program),
@@ -363,7 +327,8 @@ def run_verify(
             if opts.render and scene is not None and machine_check is not None \
                     and machine_check.pair[0]:
                 png = render_worst_pose(scene, kins, machine_check, path.name)
-                renders[f"machine_{index + 1}_{path.stem}.png"] = png
+                machine_pngs[-1] = f"machine_{index + 1}_{path.stem}.png"
+                renders[machine_pngs[-1]] = png
                 images.append((f"machine at the smallest clearance of {path.name}", png))
             if opts.render and (opts.render_each_program or index == len(programs) - 1):
                 surface = _stock_surface(work)  # the last one is the final stock's
@@ -383,7 +348,7 @@ def run_verify(
                                     previous if initial_stock is not None else None, earlier)
         deviation_summary = deviation.summary()
         deviation_summary["allowance_mm"] = allowance
-        found = _deviation_events(
+        found = deviation_events(
             deviation, owners, opts.gouge_tolerance, allowance, programs[-1].name
         )
         events.extend(sort_events(found))
@@ -402,7 +367,15 @@ def run_verify(
             images.append((f"final stock ({view})", png))
 
     work.owners = owners
-    kept, counts = _cap(events)
+    texts = {}
+    if opts.record:
+        motion = [e for e in events if e.type not in ("stock_short", "gouge", "excess")]
+        texts[SWEPT] = record(programs, [t.name for t in the_tools], durations, summaries,
+                              motion, machine_pngs,
+                              {**settings, "start_owners": earlier,
+                               "start_sha256": file_digest(stock)
+                               if Path(stock).is_file() else None})
+    kept, counts = capped(events)
     # events of blocks from an earlier run (a loaded .npz stock) sort first
     order = {p.name: i for i, p in enumerate(programs)}
     type_order = {t: i for i, t in enumerate(EVENT_TYPES)}
@@ -430,7 +403,8 @@ def run_verify(
     }
     if scene is not None:
         result["machine_model"] = scene_summary(scene)
-    _write_outputs(Path(out), work, result, kept, [p.name for p in programs], images, renders)
+    _write_outputs(Path(out), work, result, kept, [p.name for p in programs], images, renders,
+                   texts)
     return deviation
 
 
@@ -442,6 +416,7 @@ def _write_outputs(
     names: list[str],
     images: list[tuple[str, bytes]],
     renders: dict[str, bytes],
+    texts: dict[str, str],
 ) -> None:
     from cam.verify.report import junit_xml, report_html, verify_json
 
@@ -452,6 +427,8 @@ def _write_outputs(
         work.save(stage / "stock.npz")
         for name, png in sorted(renders.items()):
             write_bytes_atomic(stage / name, png)
+        for name, text in texts.items():
+            write_text_atomic(stage / name, text)
 
 
 def _stock_surface(work: Stock) -> tuple[NDArray[np.float64], NDArray[np.int64]]:

@@ -183,7 +183,8 @@ def _lumped_stock(design: object, distance: object, folder: Path) -> tuple[Path,
 
 
 @pytest.mark.slow
-def test_the_rest_operation_cuts_where_the_stock_left_finishing_short(tmp_path: Path) -> None:
+def test_the_rest_operation_cuts_where_the_stock_left_finishing_short(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """A lump of stock beyond the threshold blocks finishing's neck: finishing leaves
     postures out there; the rest operation is planned only near the lump, verified,
     and finishing planned again (those passes only) reaches the points or names them."""
@@ -269,3 +270,60 @@ def test_the_rest_operation_cuts_where_the_stock_left_finishing_short(tmp_path: 
     for name in set(before) - replanned:  # the others keep their plans
         assert after.get(name) == before[name]
     assert rest["left_out_after"]["all"] == sum(after.values())
+    _taken_over_as_swept(out, run_settings.finish_tool, distance, monkeypatch)
+
+
+def _taken_over_as_swept(out: Path, tool: str, distance: object,
+                         monkeypatch: pytest.MonkeyPatch) -> None:
+    """The verify stage's run of the rest programs and a finish program takes the rest
+    run's record over (``cam.verify.swept``): only the finish program is swept, and
+    every output is the same, byte for byte, as sweeping them all."""
+    import shutil
+
+    from cam.run.rest import REST_VERIFY
+    from cam.verify import command
+    from cam.verify.command import VerifyOptions, run_verify
+    from cam.verify.stock import Stock
+    from postproc.command import post_text
+
+    nc = out / "nc"
+    nc.mkdir()
+    ran = json.loads((out / REST_VERIFY / "verify.json").read_text())["programs"]
+    programs = [Path(shutil.copy(out / REST_VERIFY / "nc" / p["name"], nc / p["name"]))
+                for p in ran]  # in the run's order, as the post stage writes them
+    assert programs and (out / REST_VERIFY / "swept.json").is_file()
+    programs.append(nc / "finish_hub.ngc")
+    programs[-1].write_text(post_text(out / "finish" / "finish_hub.apt", CHAIN_MACHINE))
+    swept: list[str] = []
+    sweep = command._sweep_program
+
+    def counted(*args: object) -> object:
+        swept.append(str(args[-1]))
+        return sweep(*args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(command, "_sweep_program", counted)
+    start = out / "verify" / "rough" / "stock.npz"
+    deviations = {}
+    for name, resume in (("all", None), ("resumed", out / REST_VERIFY)):
+        swept.clear()
+        deviations[name] = run_verify(
+            programs, CHAIN_MACHINE, tool, str(start), SMALL_SPEC, 0.5, out / name,
+            options=VerifyOptions(allowance=0.8, render_each_program=False), progress=False,
+            design_distance=distance, initial_stock=Stock.load(start), resume_from=resume)
+        assert swept == [p.name for p in (programs if resume is None else programs[-1:])]
+    files = sorted(p.name for p in (out / "all").iterdir())
+    assert files == sorted(p.name for p in (out / "resumed").iterdir())
+    for file in files:
+        assert (out / "all" / file).read_bytes() == (out / "resumed" / file).read_bytes(), file
+    a, b = deviations["all"], deviations["resumed"]
+    assert a is not None and b is not None
+    for field in ("points", "distance", "moves", "faces"):
+        assert np.array_equal(getattr(a, field), getattr(b, field)), field
+    # a program changed since the record: everything is swept again
+    programs[0].write_text(programs[0].read_text() + "\n")
+    swept.clear()
+    run_verify(programs, CHAIN_MACHINE, tool, str(start), SMALL_SPEC, 0.5, out / "changed",
+               options=VerifyOptions(allowance=0.8, render_each_program=False),
+               progress=False, design_distance=distance, initial_stock=Stock.load(start),
+               resume_from=out / REST_VERIFY)
+    assert swept == [p.name for p in programs]
