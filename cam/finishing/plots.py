@@ -102,7 +102,7 @@ def _draw(plots: list[Plot]) -> list[Path]:
         ax.set_ylabel(f"{name} displacement (deg)")
         ax.grid(alpha=0.3)
     axes[1].set_xlabel("tool path point")
-    # fixed margins (room for tick labels of up to about eight characters): measuring
+    # fixed margins (room for tick labels of up to about six characters): measuring
     # the text of every plot (``tight_layout``) cost more than a third of its drawing
     fig.subplots_adjust(**LAYOUT)
     written = []
