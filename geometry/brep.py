@@ -24,6 +24,7 @@ from OCP.BRepBuilderAPI import (
     BRepBuilderAPI_Sewing,
 )
 from OCP.BRepCheck import BRepCheck_Analyzer
+from OCP.BRepClass3d import BRepClass3d_SolidClassifier
 from OCP.BRepGProp import BRepGProp
 from OCP.Geom import Geom_BSplineCurve, Geom_BSplineSurface
 from OCP.Geom2d import Geom2d_BSplineCurve
@@ -45,7 +46,7 @@ except ImportError:  # OCP < 8: the cadquery extra's venv (docs/dependencies.md)
     from OCP.TColStd import TColStd_Array1OfInteger as Array1_int  # type: ignore[no-redef]
     from OCP.TColStd import TColStd_Array1OfReal as Array1_double  # type: ignore[no-redef]
 from OCP.ShapeFix import ShapeFix_Solid
-from OCP.TopAbs import TopAbs_FACE, TopAbs_SHELL, TopAbs_SOLID
+from OCP.TopAbs import TopAbs_FACE, TopAbs_OUT, TopAbs_SHELL, TopAbs_SOLID
 from OCP.TopExp import TopExp_Explorer
 from OCP.TopoDS import TopoDS, TopoDS_Compound, TopoDS_Face, TopoDS_Shape, TopoDS_Solid
 from scipy.interpolate import make_interp_spline
@@ -226,9 +227,6 @@ def solid_from_faces(faces: Sequence[TopoDS_Shape], tolerance: float = 1e-5,
 
 def _outward(solid: TopoDS_Solid) -> bool:
     """Whether ``solid`` bounds a finite region (the point at infinity lies outside)."""
-    from OCP.BRepClass3d import BRepClass3d_SolidClassifier
-    from OCP.TopAbs import TopAbs_OUT
-
     classifier = BRepClass3d_SolidClassifier(solid)
     classifier.PerformInfinitePoint(1e-7)
     return bool(classifier.State() == TopAbs_OUT)

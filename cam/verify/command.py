@@ -248,9 +248,11 @@ def run_verify(
     work = load_stock(stock, resolution) if initial_stock is None else initial_stock
     start = work  # the stock this run starts from (a resumed run: its head's start)
     sweep_tol = opts.sweep_tolerance or 0.1 * work.pitch
+    # how this run starts, as a record holds it (only to write or take one over)
     settings = {"resolution_mm": work.pitch, "sweep_tolerance_mm": sweep_tol,
                 "contact_tolerance_mm": opts.contact_tolerance, "render": opts.render,
-                "machine_sha256": file_digest(machine)}
+                "machine_sha256": file_digest(machine)} \
+        if opts.record or resume_from is not None else {}
     swept = None
     if resume_from is not None and not opts.render_each_program and Path(stock).is_file():
         swept = resume(Path(resume_from), programs, [t.name for t in the_tools], start,
@@ -281,6 +283,7 @@ def run_verify(
     renders: dict[str, bytes] = {}
     surface: tuple[NDArray[np.float64], NDArray[np.int64]] | None = None
     cycle = 0.0
+    first = len(events)  # the programs' own events start here
     bar = progress_bar(progress)
     if bar is not None:
         bar.start()
@@ -338,6 +341,7 @@ def run_verify(
     finally:
         if bar is not None:
             bar.stop()
+    last = len(events)
 
     deviation_summary: dict[str, Any] = {}
     deviation: Deviation | None = None
@@ -369,9 +373,8 @@ def run_verify(
     work.owners = owners
     texts = {}
     if opts.record:
-        motion = [e for e in events if e.type not in ("stock_short", "gouge", "excess")]
         texts[SWEPT] = record(programs, [t.name for t in the_tools], durations, summaries,
-                              motion, machine_pngs,
+                              events[first:last], machine_pngs,
                               {**settings, "start_owners": earlier,
                                "start_sha256": file_digest(stock)
                                if Path(stock).is_file() else None})

@@ -14,8 +14,8 @@ run (``run_verify(..., swept=...)``) then starts from the record's final stock a
 reports the head programs from the record, with the same results as sweeping them
 (tests/cam/run/test_rest.py compares the two runs' outputs).
 
-The machine scenes of the later run are built from the stock the record started from
-(``Swept.start``), as the full run builds them from its initial stock.
+The machine scenes of the later run are built from the stock the record started from,
+as the full run builds them from its initial stock.
 """
 
 from __future__ import annotations
@@ -72,10 +72,6 @@ class Swept:
         Every motion and machine event of theirs, exact, in the record's order.
     renders : list of bytes
         Per program, the PNG of its machine render (``b""``: none).
-    start : Stock
-        The stock those programs started from (its machine scenes, its volume).
-    earlier : int
-        Owners of ``start`` (the blocks of runs before the record's).
     """
 
     programs: list[str]
@@ -83,8 +79,6 @@ class Swept:
     durations: list[float]
     events: list[Event]
     renders: list[bytes]
-    start: Any
-    earlier: int
 
 
 def record(programs: list[Path], tools: list[str], durations: list[float],
@@ -144,7 +138,8 @@ def resume(folder: Path, programs: list[Path], tools: list[str], start: Any,
     tools : list of str
         The later run's tool name of each program (the same for the head).
     start : Stock
-        The later run's initial stock (``Swept.start``).
+        The later run's initial stock (the stock the record must have started from;
+        the later run builds its machine scenes from it).
     start_file : Path
         The file ``start`` was loaded from: the record must have started from the same
         bytes.
@@ -182,5 +177,4 @@ def resume(folder: Path, programs: list[Path], tools: list[str], start: Any,
     events = [Event(e["type"], e["line"], e["program"], tuple(e["position"]), e["amount"],
                     e["message"], e["details"]) for e in data.get("events", [])]
     return Swept([e["name"] for e in entries], [e["summary"] for e in entries],
-                 [float(e["duration_s"]) for e in entries], events, renders, start,
-                 len(start.owners))
+                 [float(e["duration_s"]) for e in entries], events, renders)
