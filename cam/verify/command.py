@@ -123,7 +123,7 @@ def _sweep_program(
     # BATCH sub-moves a compiled call; the grids go through the batches independently
     if n_sub:
         stats[:] = stock.sweep(moves.tips, moves.moves, moves.axes, ids, shape, batch=BATCH,
-                               done=done)
+                               done=done, parts=moves.part)
     n_blocks = len(moves.end_tip)
     per_block = np.zeros((n_blocks, 3))
     np.add.at(per_block[:, 0], moves.block, stats[:, 0])
@@ -302,7 +302,8 @@ def run_verify(
                     renders[machine_pngs[-1]] = png
                     images.append((f"machine at the smallest clearance of {path.name}", png))
                 continue
-            moves = program_moves(program, the_machine, kins, shape.reach, sweep_tol)
+            moves = program_moves(program, the_machine, kins, shape.reach, sweep_tol,
+                                  inner_reach=shape.inner_reach if shape.inner else None)
             before = work.volume()
             per_block = _sweep_program(work, moves, shape, len(owners), bar, path.name)
             owners.extend((path.name, int(line)) for line in program.line)
@@ -322,7 +323,8 @@ def run_verify(
             summaries.append({
                 "name": path.name,
                 "blocks": len(program),
-                "sub_moves": len(moves.tips),
+                "sub_moves": int(np.sum(moves.part != 1)) if moves.part is not None
+                else len(moves.tips),
                 "removed_volume_mm3": round(before - after, 3),
                 "cycle_time_s": round(duration, 3),
                 **({} if machine_check is None else machine_summary(machine_check)),

@@ -273,7 +273,7 @@ def sweep_moves(  # type: ignore[no-untyped-def]
     lo, hi, lom, him, start, count, cap, used,
     k, origin, shape, h,
     tile_lo, tile_hi, tile,
-    tips, moves, axes, move_ids, prims, cuts, strides, first, stats,
+    tips, moves, axes, move_ids, prims, cuts, strides, masks, first, stats,
 ):
     """Sweep a batch of straight fixed-axis moves through one dexel grid (reference
     implementation; ``Stock.sweep`` uses ``cam.verify.sweep.sweep_grid``).
@@ -309,6 +309,10 @@ def sweep_moves(  # type: ignore[no-untyped-def]
     strides : (p,) int64
         Visit every ``stride``-th ray along both grid axes (1 for cutting primitives;
         a coarser lattice for the shank/holder probe).
+    masks : (M,) int64
+        The primitives each move sweeps: bit ``p`` for primitive ``p``
+        (``Stock.sweep``: a block's inner cutter primitives along their own, longer
+        sub-moves).
     first : int
         First move of the batch to process (resume after a pool overflow).
     stats : (M, 4) float64
@@ -336,6 +340,8 @@ def sweep_moves(  # type: ignore[no-untyped-def]
         ud = dk - zu * zd
         dd = d0 * d0 + d1 * d1 + d2 * d2 - zd * zd
         for p in range(prims.shape[0]):
+            if not (masks[mv] >> p) & 1:
+                continue
             alpha, beta, gamma = prims[p, 0], prims[p, 1], prims[p, 2]
             zlo, zhi, rmax = prims[p, 3], prims[p, 4], prims[p, 5]
             # bounding box of the swept primitive

@@ -25,6 +25,17 @@ sub-move's quarter points (for the near-uniform rotation inside one block the
 largest deviation of the axis from the mid axis is at the sub-move ends, and the
 sagitta of the tip path at its middle) and doubled until they hold.
 
+The bound holds per primitive with that primitive's own reach. The ball of a ball end
+mill reaches ``2R`` from the tip, its flutes' top ``hypot(flute, R)``: on a turning
+block the ball needs several times fewer sub-moves than the flutes. With
+``inner_reach`` (``ToolShape.inner_reach``) the tool's inner primitives are swept along
+chunks of ``count // inner_count`` consecutive sub-moves (each chunk no longer than a
+sub-move for the inner reach, so within the same tolerance), each chunk before the
+sub-moves it spans, which sweep the other primitives (``ToolMoves.part``). Every
+end a block leaves carries the block's id either way; what changes is the order in
+which the ball and the flutes meet a ray inside one chunk, and the longest cut of one
+sub-move along a ray (a chunk is longer).
+
 Time: G94 blocks take ``length / F`` (length of the X, Y, Z path; of the rotary path in
 degrees when the linear axes do not move, LinuxCNC's rule); G93 blocks ``1 / F``
 minutes; rapids the longest axis travel over that axis's maximum velocity.
@@ -66,6 +77,10 @@ class ToolMoves:
         Block durations, s.
     overtravel : list of dict
         Over-travel findings: ``block``, ``axis``, ``value``, ``limit`` (user units).
+    part : (m,) int8
+        What each sub-move sweeps: 0 the whole tool; 1 only the tool's inner
+        primitives, along a chunk of the sub-moves that follow it; 2 every primitive
+        but those (``ToolShape.inner``, ``Stock.sweep``).
     """
 
     tips: NDArray[np.float64]
@@ -77,6 +92,7 @@ class ToolMoves:
     joints: NDArray[np.float64]
     duration: NDArray[np.float64]
     overtravel: list[dict[str, Any]] = field(default_factory=list)
+    part: NDArray[np.int8] | None = None
 
 
 def _angles(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -228,44 +244,9 @@ def _overtravel(
     return found
 
 
-def program_moves(
-    program: MachineProgram,
-    machine: Any,
-    kins: Any,
-    reach: float,
-    tolerance: float,
-    tool_length: float = 0.0,
-    start_at_first: bool = True,
-) -> ToolMoves:
-    """Expand a program into straight fixed-axis sub-moves within ``tolerance``.
-
-    Parameters
-    ----------
-    program : MachineProgram
-        Blocks read from the NC file.
-    machine : Machine
-        Limits and axis velocities.
-    kins : Kinematics
-        ``forward(joints, tool_length) -> (tip, axis)`` in W.
-    reach : float
-        Largest distance of a cutter point from the tip, mm (``ToolShape.reach``).
-    tolerance : float
-        Bound on the distance between the swept and the true tool, mm (module doc).
-    tool_length : float
-        See ``Kinematics.forward`` (0: the program commands the tip).
-    start_at_first : bool
-        The machine position before an NC file is unknown (the reader starts from
-        zero joints); True makes the first block a move from its own end pose, so
-        the unknown approach neither cuts nor collides. False sweeps it from
-        ``program.start``.
-
-    Returns
-    -------
-    ToolMoves
-        Straight fixed-axis sub-moves (tips mm, axes) tied to their NC lines.
-    """
-    n_blocks = len(program)
-    poser = _Poser(kins, program, tool_length, start_at_first)
+def _counts(poser: Any, n_blocks: int, reach: float, tolerance: float) -> NDArray[np.int64]:
+    """Sub-moves per block so that a tool reaching ``reach`` from the tip is swept
+    within ``tolerance`` (module doc)."""
     blocks = np.arange(n_blocks, dtype=np.int64)
     # initial subdivision from the axis turn sampled at 8 points per block
     samples = 8
@@ -310,16 +291,108 @@ def program_moves(
         failing = np.unique(cb[bad])
         count[failing] = np.minimum(2 * count[failing], MAX_SUBMOVES)
         pending = failing[count[failing] < MAX_SUBMOVES]
-    sub_block = np.repeat(blocks, count)
+    return np.asarray(count, dtype=np.int64)
+
+
+def _sequence(count: NDArray[np.int64], chunk: NDArray[np.int64]
+              ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64],
+                         NDArray[np.int8]]:
+    """Block, start and end parameter, and part (``ToolMoves.part``) of every entry,
+    in sweep order: per block of ``count`` sub-moves taken ``chunk`` at a time
+    (``chunk`` 1: the whole tool on each sub-move), each chunk's inner-primitive entry
+    followed by its sub-moves for the other primitives."""
+    n_blocks = len(count)
+    split = chunk > 1
+    chunks = np.where(split, -(-count // chunk), 0)
+    per_block = count + chunks
+    out_first = np.cumsum(per_block) - per_block
+    total = int(per_block.sum())
+    block = np.empty(total, np.int64)
+    f0 = np.empty(total)
+    f1 = np.empty(total)
+    part = np.zeros(total, np.int8)
+    # the sub-moves
+    sub_block = np.repeat(np.arange(n_blocks, dtype=np.int64), count)
     first = np.cumsum(count) - count
     index = np.arange(len(sub_block)) - np.repeat(first, count)
-    f0 = index / count[sub_block]
-    f1 = (index + 1) / count[sub_block]
+    size = chunk[sub_block]
+    at = out_first[sub_block] + index + np.where(split[sub_block], index // size + 1, 0)
+    block[at] = sub_block
+    f0[at] = index / count[sub_block]
+    f1[at] = (index + 1) / count[sub_block]
+    part[at] = np.where(split[sub_block], 2, 0)
+    # the chunks: before their first sub-move
+    ch_block = np.repeat(np.arange(n_blocks, dtype=np.int64), chunks)
+    ch_first = np.cumsum(chunks) - chunks
+    c = np.arange(len(ch_block)) - np.repeat(ch_first, chunks)
+    size = chunk[ch_block]
+    at = out_first[ch_block] + c * size + c
+    block[at] = ch_block
+    f0[at] = c * size / count[ch_block]
+    f1[at] = np.minimum((c + 1) * size, count[ch_block]) / count[ch_block]
+    part[at] = 1
+    return block, f0, f1, part
+
+
+def program_moves(
+    program: MachineProgram,
+    machine: Any,
+    kins: Any,
+    reach: float,
+    tolerance: float,
+    tool_length: float = 0.0,
+    start_at_first: bool = True,
+    inner_reach: float | None = None,
+) -> ToolMoves:
+    """Expand a program into straight fixed-axis sub-moves within ``tolerance``.
+
+    Parameters
+    ----------
+    program : MachineProgram
+        Blocks read from the NC file.
+    machine : Machine
+        Limits and axis velocities.
+    kins : Kinematics
+        ``forward(joints, tool_length) -> (tip, axis)`` in W.
+    reach : float
+        Largest distance of a cutter point from the tip, mm (``ToolShape.reach``).
+    tolerance : float
+        Bound on the distance between the swept and the true tool, mm (module doc).
+    tool_length : float
+        See ``Kinematics.forward`` (0: the program commands the tip).
+    start_at_first : bool
+        The machine position before an NC file is unknown (the reader starts from
+        zero joints); True makes the first block a move from its own end pose, so
+        the unknown approach neither cuts nor collides. False sweeps it from
+        ``program.start``.
+    inner_reach : float, optional
+        Reach of the tool's inner primitives (``ToolShape.inner_reach``): a turning
+        block whose sub-moves for that reach are at least twice as long is swept with
+        them for the inner primitives (``part`` 1, each before the sub-moves it
+        spans) and with the sub-moves for ``reach`` for the others (``part`` 2),
+        each primitive within ``tolerance``. None: the whole tool on every sub-move.
+
+    Returns
+    -------
+    ToolMoves
+        Straight fixed-axis sub-moves (tips mm, axes) tied to their NC lines.
+    """
+    n_blocks = len(program)
+    poser = _Poser(kins, program, tool_length, start_at_first)
+    blocks = np.arange(n_blocks, dtype=np.int64)
+    count = _counts(poser, n_blocks, reach, tolerance)
+    chunk = np.ones(n_blocks, np.int64)
+    if inner_reach is not None and inner_reach < reach:
+        # a chunk spans whole sub-moves and is no longer than the inner sub-moves
+        chunk = np.maximum(1, count // _counts(poser, n_blocks, inner_reach, tolerance))
+    sub_block, f0, f1, part = _sequence(count, chunk)
     tip0, _ = poser.at(sub_block, f0)
     tip1, _ = poser.at(sub_block, f1)
     _, axis_mid = poser.at(sub_block, 0.5 * (f0 + f1))
-    # over-travel: at every sub-move end (TCP moves can pass a limit between blocks)
-    joints_sub = poser.machine_joints(sub_block, f1)
+    # over-travel: at every sub-move end (TCP moves can pass a limit between blocks);
+    # the chunks end where sub-moves do
+    fine = part != 1
+    joints_sub = poser.machine_joints(sub_block[fine], f1[fine])
     joints_end = poser.machine_joints(blocks, np.ones(n_blocks))
     all_joints = np.vstack([poser.joints_prog[:1], joints_end])
     return ToolMoves(
@@ -332,8 +405,9 @@ def program_moves(
         joints=joints_end,
         duration=_block_durations(program, machine, all_joints),
         overtravel=_overtravel(
-            machine, joints_sub, sub_block, poser.machine_joints(blocks, np.zeros(n_blocks))
+            machine, joints_sub, sub_block[fine], poser.machine_joints(blocks, np.zeros(n_blocks))
         ),
+        part=part,
     )
 
 

@@ -26,9 +26,10 @@ from cam.verify.sweep import sweep_grid
 
 __all__ = ["sweep_grids"]
 
-#: (tips, moves, axes, move ids, primitives, cutting flags, strides): a sweep's arrays.
+#: (tips, moves, axes, move ids, primitives, cutting flags, strides, primitive masks):
+#: a sweep's arrays.
 Job = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.int32],
-            NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]
+            NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64], NDArray[np.int64]]
 
 
 def sweep_grid_batch(grid: DexelGrid, job: Job, begin: int, end: int,
@@ -36,7 +37,7 @@ def sweep_grid_batch(grid: DexelGrid, job: Job, begin: int, end: int,
     """Moves ``begin:end`` of ``job`` through one grid (compiled, releases the GIL);
     their statistics into ``stats[begin:end]`` ((m, 4): cut sum, longest cut, overlap
     sum, longest overlap). A pool overflow grows the grid and resumes."""
-    tips, moves, axes, ids, prims, cuts, strides = job
+    tips, moves, axes, ids, prims, cuts, strides, masks = job
     part = stats[begin:end]
     first = 0
     index = grid.sweep_index()
@@ -45,7 +46,8 @@ def sweep_grid_batch(grid: DexelGrid, job: Job, begin: int, end: int,
             grid.lo, grid.hi, grid.lo_move, grid.hi_move, grid.start, grid.count,
             grid.cap, grid.used, grid.k, grid.origin, grid.shape, grid.pitch,
             index.tile_lo, index.tile_hi, index.dirty, TILE, tips[begin:end],
-            moves[begin:end], axes[begin:end], ids[begin:end], prims, cuts, strides, first,
+            moves[begin:end], axes[begin:end], ids[begin:end], prims, cuts, strides,
+            masks[begin:end], first,
             part, index.acc, index.touched, grid.counters,
             index.mat_lo, index.mat_hi, index.gap_lo, index.gap_hi,
         )

@@ -353,6 +353,7 @@ class Stock:
         probe_pitch: float = 0.5,
         batch: int | None = None,
         done: Callable[[int], None] | None = None,
+        parts: NDArray[np.int8] | None = None,
     ) -> NDArray[np.float64]:
         """Sweep the tool along straight fixed-axis moves: cut with the cutter, probe
         with shank and holder.
@@ -378,6 +379,9 @@ class Stock:
             the batches independently (``cam.verify.schedule``): the same result.
         done : callable, optional
             Progress: called with the number of leading moves every grid has swept.
+        parts : (m,) int8, optional
+            What each move sweeps (``ToolMoves.part``): 0 the whole tool, 1 only the
+            shape's ``inner`` cutter primitives, 2 the others. None: all 0.
 
         Returns
         -------
@@ -394,8 +398,15 @@ class Stock:
         cuts[: len(shape.cutter)] = True
         strides = np.ones(len(prims), np.int64)
         strides[len(shape.cutter) :] = max(1, int(round(probe_pitch / self.pitch)))
+        whole = (1 << len(prims)) - 1
+        inner = (1 << shape.inner) - 1
+        masks = np.full(len(tips), whole, np.int64)
+        if parts is not None:
+            parts = np.asarray(parts).reshape(-1)
+            masks[parts == 1] = inner
+            masks[parts == 2] = whole & ~inner
         out = np.zeros((len(tips), 3))
-        job = (tips, moves, axes, ids, prims, cuts, strides)
+        job = (tips, moves, axes, ids, prims, cuts, strides, masks)
         threads = self.threads if self.threads is not None else default_threads()
         per_grid = sweep_grids(self.grids, job, batch, threads, done)
         for grid, stats in zip(self.grids, per_grid, strict=True):  # fixed order

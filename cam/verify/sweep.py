@@ -94,7 +94,8 @@ def sweep_grid(  # type: ignore[no-untyped-def]
     lo, hi, lom, him, start, count, cap, used,
     k, origin, shape, h,
     tile_lo, tile_hi, tile_dirty, tile,
-    tips, moves, axes, move_ids, prims, cuts, strides, first, stats, acc, touched, counters,
+    tips, moves, axes, move_ids, prims, cuts, strides, masks, first, stats, acc, touched,
+    counters,
     mat_lo, mat_hi, gap_lo, gap_hi,
 ):
     """Sweep moves ``first..`` through one dexel grid (arguments as in
@@ -147,6 +148,8 @@ def sweep_grid(  # type: ignore[no-untyped-def]
     for mv in range(n_moves):
         _move_frame(tips, moves, axes, mv, ia, ja, k, tipg, dg, ag)
         for p in range(prims.shape[0]):
+            if not (masks[mv] >> p) & 1:
+                continue
             p0x, p0y, p0z, ux, uy, uz, length, rho, exact = capsule(
                 tipg[0], tipg[1], tipg[2], dg[0], dg[1], dg[2], ag[0], ag[1], ag[2],
                 prims[p, 0], prims[p, 1], prims[p, 2], prims[p, 3], prims[p, 4], prims[p, 5])
@@ -172,6 +175,8 @@ def sweep_grid(  # type: ignore[no-untyped-def]
             ud = dg[2] - zu * zd
             dd = dg[0] * dg[0] + dg[1] * dg[1] + dg[2] * dg[2] - zd * zd
             for p in range(prims.shape[0]):
+                if not (masks[mv] >> p) & 1:
+                    continue
                 alpha, beta, gamma = prims[p, 0], prims[p, 1], prims[p, 2]
                 zlo, zhi, rmax = prims[p, 3], prims[p, 4], prims[p, 5]
                 cutting = cuts[p]

@@ -76,6 +76,13 @@ class ToolShape:
     profile_error : float
         Largest distance of the primitive outline from the true cutter outline, mm
         (0 for ball and flat end mills).
+    inner : int
+        The leading cutter primitives (the ball of a ball end mill, a bull-nose's
+        corner) that reach no farther than half of ``reach`` from the tip: swept along
+        their own, longer sub-moves (``cam.verify.motion``); 0: none.
+    inner_reach : float
+        Largest distance of a point of those primitives from the tip, mm (``reach``
+        when there are none).
     """
 
     cutter: NDArray[np.float64]
@@ -83,6 +90,17 @@ class ToolShape:
     reach: float
     body_reach: float
     profile_error: float
+    inner: int = 0
+    inner_reach: float = 0.0
+
+
+def primitive_reach(row: NDArray[np.float64]) -> float:
+    """Largest distance of a point of a primitive (a ``PRIMITIVE_COLUMNS`` row: sphere
+    or frustum) from the tip, mm. ``z^2 + r(z)^2`` is linear in ``z`` on a sphere and
+    convex on a frustum, so it is largest at one of the slab's ends."""
+    alpha, beta, gamma, zlo, zhi = (float(v) for v in row[:5])
+    return max(math.sqrt(max(z * z - (alpha * z * z + beta * z + gamma), z * z))
+               for z in (zlo, zhi))
 
 
 def _corner_frusta(radius: float, corner: float, segments: int, end: float = 0.5 * math.pi
@@ -151,4 +169,8 @@ def tool_shape(tool: Tool, corner_segments: int = CORNER_SEGMENTS) -> ToolShape:
     top = tool.length
     widest = max([tool.flute_top_radius,
                   *(max(s.r0, s.r1) for s in (*tool.shank_segments(), *tool.holder))])
-    return ToolShape(cutter, body, reach, math.hypot(top, widest), error)
+    inner = 0
+    while inner < len(cutter) - 1 and primitive_reach(cutter[inner]) <= 0.5 * reach:
+        inner += 1
+    inner_reach = max((primitive_reach(row) for row in cutter[:inner]), default=reach)
+    return ToolShape(cutter, body, reach, math.hypot(top, widest), error, inner, inner_reach)

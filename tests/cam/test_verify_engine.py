@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -245,9 +246,12 @@ def _moves(seed: int, n: int, five_axis: bool) -> tuple[np.ndarray, ...]:
     return tips[:-1], np.diff(tips, axis=0), axes
 
 
-def _reference_sweep(stock: Stock, tips, moves, axes, shape) -> np.ndarray:  # type: ignore[no-untyped-def]
-    """The per-primitive sweep over every ray of the bounding box (kernels.sweep_moves)."""
+def _reference_sweep(stock: Stock, tips, moves, axes, shape, masks=None) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """The per-primitive sweep over every ray of the bounding box (kernels.sweep_moves);
+    ``masks``: the primitives of each move (default all)."""
     prims = np.ascontiguousarray(np.vstack([shape.cutter, shape.body]))
+    if masks is None:
+        masks = np.full(len(tips), (1 << len(prims)) - 1, np.int64)
     cuts = np.zeros(len(prims), np.bool_)
     cuts[: len(shape.cutter)] = True
     strides = np.ones(len(prims), np.int64)
@@ -262,7 +266,7 @@ def _reference_sweep(stock: Stock, tips, moves, axes, shape) -> np.ndarray:  # t
             failed = sweep_moves(
                 grid.lo, grid.hi, grid.lo_move, grid.hi_move, grid.start, grid.count,
                 grid.cap, grid.used, grid.k, grid.origin, grid.shape, grid.pitch,
-                t_lo, t_hi, TILE, tips, moves, axes, ids, prims, cuts, strides, first, stats)
+                t_lo, t_hi, TILE, tips, moves, axes, ids, prims, cuts, strides, masks, first, stats)
             if failed < 0:
                 break
             grid.grow()
@@ -416,3 +420,28 @@ def test_a_pool_overflow_resumes_where_it_stopped() -> None:
         np.testing.assert_allclose(got[1], want[1], atol=TOL)
         np.testing.assert_allclose(got[2], want[2], atol=TOL)
         assert np.array_equal(got[3], want[3]) and np.array_equal(got[4], want[4])
+
+
+def test_moves_of_part_of_the_tool_match_the_reference_sweep() -> None:
+    """``Stock.sweep(parts=...)``: moves that sweep only the inner primitives (the ball),
+    or every primitive but those, give the reference sweep's intervals with the same
+    primitive masks."""
+    shape = dataclasses.replace(tool_shape(_tool("ball")), inner=1, inner_reach=4.0)
+    tips, moves, axes = _moves(7, 120, True)
+    parts = np.random.default_rng(7).integers(0, 3, len(tips)).astype(np.int8)
+    whole = (1 << (len(shape.cutter) + len(shape.body))) - 1
+    masks = np.where(parts == 1, 1, np.where(parts == 2, whole & ~1, whole)).astype(np.int64)
+    fast = Stock.box([-10.0, -8.0, -8.0], [10.0, 8.0, 0.0], 0.2)
+    slow = Stock.box([-10.0, -8.0, -8.0], [10.0, 8.0, 0.0], 0.2)
+    plain = Stock.box([-10.0, -8.0, -8.0], [10.0, 8.0, 0.0], 0.2)
+    ids = np.arange(len(tips), dtype=np.int32)
+    stats = fast.sweep(tips, moves, axes, ids, shape, parts=parts)
+    ref_overlap = _reference_sweep(slow, tips, moves, axes, shape, masks)
+    plain.sweep(tips, moves, axes, ids, shape)
+    assert fast.volume() == pytest.approx(slow.volume(), rel=1e-9)
+    assert fast.volume() > plain.volume()  # the parts left out really were left out
+    for got, want in zip(_intervals(fast), _intervals(slow), strict=True):
+        assert np.array_equal(got[0], want[0])
+        np.testing.assert_allclose(got[1], want[1], atol=TOL)
+        np.testing.assert_allclose(got[2], want[2], atol=TOL)
+    np.testing.assert_allclose(stats[:, 2], ref_overlap, atol=TOL)

@@ -166,3 +166,51 @@ def test_a_joint_block_after_tcp_starts_at_the_joints_of_the_last_tip(machine) -
     # the last block moves the tip along the tool axis only (machine Z), 50 mm
     assert np.linalg.norm(np.cross(up, axis)) < 1e-9
     assert np.linalg.norm(up) == pytest.approx(50.0)
+
+
+def test_inner_primitives_sweep_their_own_longer_sub_moves(machine) -> None:  # type: ignore[no-untyped-def]
+    """With ``inner_reach`` a turning block is swept by the ball along chunks of the
+    sub-moves (each within the tolerance for the ball's reach, ahead of the sub-moves
+    it spans) and by the rest of the tool along the sub-moves; the removed volume is
+    the whole tool's on every sub-move within the tolerance's share of it."""
+    m, kins = machine
+    shape = tool_shape(BALL)
+    assert shape.inner == 1 and shape.inner_reach == pytest.approx(6.0)
+    program = _program([[6.0, 4.0, 2.0, -25.0, 40.0], [0.0, 0.0, 1.0, -5.0, 0.0]],
+                       start=[0.0, -4.0, 3.0, 0.0, 0.0])
+    tol = 0.01
+    plain = program_moves(program, m, kins, shape.reach, tol, start_at_first=False)
+    split = program_moves(program, m, kins, shape.reach, tol, start_at_first=False,
+                          inner_reach=shape.inner_reach)
+    assert split.part is not None
+    fine = split.part != 1
+    # the sub-moves themselves are unchanged; every block is chunked
+    np.testing.assert_array_equal(split.tips[fine], plain.tips)
+    np.testing.assert_array_equal(split.moves[fine], plain.moves)
+    np.testing.assert_array_equal(split.axes[fine], plain.axes)
+    assert set(split.part[fine]) == {2}
+    chunks = np.flatnonzero(split.part == 1)
+    assert 1 < len(chunks) <= fine.sum() / 2
+    ends = split.tips + split.moves
+    for i, c in enumerate(chunks):
+        # a chunk starts where the sub-move after it starts and ends where the last
+        # sub-move before the next chunk (or its block's end) ends
+        stop = chunks[i + 1] if i + 1 < len(chunks) else len(split.part)
+        last = stop - 1
+        assert split.block[c] == split.block[c + 1] == split.block[last]
+        np.testing.assert_array_equal(split.tips[c], split.tips[c + 1])
+        np.testing.assert_array_equal(ends[c], ends[last])
+        # its fixed axis is within tol/2 of the true axes at its sub-moves' ends (the
+        # quarter-point bound of the module doc, for the ball's reach)
+        angles = np.arccos(np.clip(split.axes[c + 1:stop] @ split.axes[c], -1.0, 1.0))
+        assert shape.inner_reach * angles.max() <= 0.5 * tol * 1.05
+    assert len(split.overtravel) == len(plain.overtravel)
+    lower, upper = np.array([-10.0, -10.0, -4.0]), np.array([12.0, 10.0, 2.0])
+    one, two = Stock.box(lower, upper, 0.1), Stock.box(lower, upper, 0.1)
+    before = one.volume()
+    _cut(one, plain, shape)
+    two.sweep(split.tips, split.moves, split.axes, split.block.astype(np.int32), shape,
+              parts=split.part)
+    removed_plain, removed_split = before - one.volume(), before - two.volume()
+    assert removed_plain > 10.0
+    assert removed_split == pytest.approx(removed_plain, rel=1e-3)
