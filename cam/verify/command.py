@@ -303,7 +303,7 @@ def run_verify(
                     images.append((f"machine at the smallest clearance of {path.name}", png))
                 continue
             moves = program_moves(program, the_machine, kins, shape.reach, sweep_tol,
-                                  inner_reach=shape.inner_reach if shape.inner else None)
+                                  level_reach=shape.level_reach)
             before = work.volume()
             per_block = _sweep_program(work, moves, shape, len(owners), bar, path.name)
             owners.extend((path.name, int(line)) for line in program.line)
@@ -323,7 +323,7 @@ def run_verify(
             summaries.append({
                 "name": path.name,
                 "blocks": len(program),
-                "sub_moves": int(np.sum(moves.part != 1)) if moves.part is not None
+                "sub_moves": int(np.sum(moves.part & 1)) if moves.part is not None
                 else len(moves.tips),
                 "removed_volume_mm3": round(before - after, 3),
                 "cycle_time_s": round(duration, 3),

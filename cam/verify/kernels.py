@@ -311,7 +311,7 @@ def sweep_moves(  # type: ignore[no-untyped-def]
         a coarser lattice for the shank/holder probe).
     masks : (M,) int64
         The primitives each move sweeps: bit ``p`` for primitive ``p``
-        (``Stock.sweep``: a block's inner cutter primitives along their own, longer
+        (``Stock.sweep``: a block's primitives of a level along their own, longer
         sub-moves).
     first : int
         First move of the batch to process (resume after a pool overflow).

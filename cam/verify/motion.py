@@ -27,14 +27,16 @@ sagitta of the tip path at its middle) and doubled until they hold.
 
 The bound holds per primitive with that primitive's own reach. The ball of a ball end
 mill reaches ``2R`` from the tip, its flutes' top ``hypot(flute, R)``: on a turning
-block the ball needs several times fewer sub-moves than the flutes. With
-``inner_reach`` (``ToolShape.inner_reach``) the tool's inner primitives are swept along
-chunks of ``count // inner_count`` consecutive sub-moves (each chunk no longer than a
-sub-move for the inner reach, so within the same tolerance), each chunk before the
-sub-moves it spans, which sweep the other primitives (``ToolMoves.part``). Every
-end a block leaves carries the block's id either way; what changes is the order in
-which the ball and the flutes meet a ray inside one chunk, and the longest cut of one
-sub-move along a ray (a chunk is longer).
+block the ball and the lower flutes need several times fewer sub-moves than the
+flutes' top. ``ToolShape`` gives each cutter primitive a level ``l`` (within
+``reach / 2**l`` of the tip; a flute side is split at those heights) and each level its
+reach (``level_reach``). With ``level_reach`` level ``l`` is swept along chunks of
+``2**l`` consecutive sub-moves, halved on a block until every chunk passes the
+sub-moves' test for that level's reach (the same tolerance), each chunk before the
+sub-moves it spans, the higher levels first, the sub-moves sweeping level 0
+and the body (``ToolMoves.part``). Every end a block leaves carries the block's id
+either way; what changes is the order in which the pieces meet a ray inside one chunk,
+and the longest cut of one entry along a ray (a chunk is longer).
 
 Time: G94 blocks take ``length / F`` (length of the X, Y, Z path; of the rotary path in
 degrees when the linear axes do not move, LinuxCNC's rule); G93 blocks ``1 / F``
@@ -53,6 +55,8 @@ from postproc.program import FeedMode, MachineProgram, Motion
 
 #: Sub-moves per block at most (guards against a runaway subdivision).
 MAX_SUBMOVES = 4096
+#: ``ToolMoves.part`` of a move that sweeps the whole tool (every level's bit).
+ALL_LEVELS = 0x7F
 
 
 @dataclass
@@ -78,9 +82,10 @@ class ToolMoves:
     overtravel : list of dict
         Over-travel findings: ``block``, ``axis``, ``value``, ``limit`` (user units).
     part : (m,) int8
-        What each sub-move sweeps: 0 the whole tool; 1 only the tool's inner
-        primitives, along a chunk of the sub-moves that follow it; 2 every primitive
-        but those (``ToolShape.inner``, ``Stock.sweep``).
+        Levels each entry sweeps (bit ``l``: the primitives of level ``l``,
+        ``ToolShape.cutter_level``; level 0 holds the body): a sub-move has bit 0 and
+        the bits of every level not swept along chunks on its block (``ALL_LEVELS``:
+        the whole tool), a chunk only its level's bit.
     """
 
     tips: NDArray[np.float64]
@@ -244,6 +249,46 @@ def _overtravel(
     return found
 
 
+def _outside(poser: Any, block: NDArray[np.int64], c0: NDArray[np.float64],
+             c1: NDArray[np.float64], reach: float, half: float) -> NDArray[np.bool_]:
+    """Straight moves of ``block`` from parameter ``c0`` to ``c1`` whose fixed mid axis
+    or straight tip leave ``half`` at a reach of ``reach`` (quarter points, module doc)."""
+    quarter = np.stack([c0, 0.75 * c0 + 0.25 * c1, 0.5 * (c0 + c1), 0.25 * c0 + 0.75 * c1, c1])
+    tips_q, axes_q = poser.at(np.tile(block, 5), quarter.ravel())
+    tips_q = tips_q.reshape(5, -1, 3)
+    axes_q = axes_q.reshape(5, -1, 3)
+    angle = np.max(_angles(axes_q, axes_q[2][None]), axis=0)
+    seg = tips_q[4] - tips_q[0]
+    length2 = np.maximum(np.sum(seg * seg, axis=1), 1e-300)
+    worst = np.zeros(len(block))
+    for q in (1, 2, 3):
+        rel = tips_q[q] - tips_q[0]
+        along = np.sum(rel * seg, axis=1) / length2
+        off = rel - along[:, None] * seg
+        worst = np.maximum(worst, np.linalg.norm(off, axis=1))
+    bad: NDArray[np.bool_] = (reach * angle > half) | (worst > half)
+    return bad
+
+
+def _chunk_sizes(poser: Any, count: NDArray[np.int64], reach: float, start: int,
+                 tolerance: float) -> NDArray[np.int64]:
+    """Sub-moves per chunk of a level reaching ``reach``: ``start`` (``2**l``), halved
+    on the blocks where a chunk leaves the tolerance (the sub-moves' test) until none
+    does; 1 on blocks of fewer than two sub-moves."""
+    size = np.where(count >= 2, np.minimum(start, count), 1).astype(np.int64)
+    pending = np.flatnonzero(size > 1)
+    while len(pending):
+        n_chunks = -(-count[pending] // size[pending])
+        cb = np.repeat(pending, n_chunks)
+        c = np.arange(len(cb)) - np.repeat(np.cumsum(n_chunks) - n_chunks, n_chunks)
+        c0 = c * size[cb] / count[cb]
+        c1 = np.minimum((c + 1) * size[cb], count[cb]) / count[cb]
+        failing = np.unique(cb[_outside(poser, cb, c0, c1, reach, 0.5 * tolerance)])
+        size[failing] //= 2
+        pending = failing[size[failing] > 1]
+    return size
+
+
 def _counts(poser: Any, n_blocks: int, reach: float, tolerance: float) -> NDArray[np.int64]:
     """Sub-moves per block so that a tool reaching ``reach`` from the tip is swept
     within ``tolerance`` (module doc)."""
@@ -272,20 +317,7 @@ def _counts(poser: Any, n_blocks: int, reach: float, tolerance: float) -> NDArra
         index = np.arange(len(cb)) - np.repeat(first, count[pending])
         c0 = index / count[cb]
         c1 = (index + 1) / count[cb]
-        quarter = np.stack([c0, 0.75 * c0 + 0.25 * c1, 0.5 * (c0 + c1), 0.25 * c0 + 0.75 * c1, c1])
-        tips_q, axes_q = poser.at(np.tile(cb, 5), quarter.ravel())
-        tips_q = tips_q.reshape(5, -1, 3)
-        axes_q = axes_q.reshape(5, -1, 3)
-        angle = np.max(_angles(axes_q, axes_q[2][None]), axis=0)
-        seg = tips_q[4] - tips_q[0]
-        length2 = np.maximum(np.sum(seg * seg, axis=1), 1e-300)
-        worst = np.zeros(len(cb))
-        for q in (1, 2, 3):
-            rel = tips_q[q] - tips_q[0]
-            along = np.sum(rel * seg, axis=1) / length2
-            off = rel - along[:, None] * seg
-            worst = np.maximum(worst, np.linalg.norm(off, axis=1))
-        bad = (reach * angle > half) | (worst > half)
+        bad = _outside(poser, cb, c0, c1, reach, half)
         if not bad.any():
             break
         failing = np.unique(cb[bad])
@@ -294,44 +326,41 @@ def _counts(poser: Any, n_blocks: int, reach: float, tolerance: float) -> NDArra
     return np.asarray(count, dtype=np.int64)
 
 
-def _sequence(count: NDArray[np.int64], chunk: NDArray[np.int64]
-              ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64],
+def _sequence(count: NDArray[np.int64], chunks: list[NDArray[np.int64]]
+              ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64],
                          NDArray[np.int8]]:
-    """Block, start and end parameter, and part (``ToolMoves.part``) of every entry,
-    in sweep order: per block of ``count`` sub-moves taken ``chunk`` at a time
-    (``chunk`` 1: the whole tool on each sub-move), each chunk's inner-primitive entry
-    followed by its sub-moves for the other primitives."""
+    """Block, start and end sub-move boundary (``j``: the block's parameter
+    ``j / count``) and level bits (``ToolMoves.part``) of every entry, in sweep order.
+
+    Per block, ``count`` sub-moves sweep every level but those that level ``l``
+    (``chunks[l - 1]`` per block) sweeps along chunks of that many sub-moves, each chunk
+    just before the first sub-move it spans, the higher levels first; a level whose
+    chunk is one sub-move, or that ``chunks`` does not name, rides on the sub-moves.
+    """
     n_blocks = len(count)
-    split = chunk > 1
-    chunks = np.where(split, -(-count // chunk), 0)
-    per_block = count + chunks
-    out_first = np.cumsum(per_block) - per_block
-    total = int(per_block.sum())
-    block = np.empty(total, np.int64)
-    f0 = np.empty(total)
-    f1 = np.empty(total)
-    part = np.zeros(total, np.int8)
-    # the sub-moves
-    sub_block = np.repeat(np.arange(n_blocks, dtype=np.int64), count)
+    blocks = np.arange(n_blocks, dtype=np.int64)
+    sub_block = np.repeat(blocks, count)
     first = np.cumsum(count) - count
     index = np.arange(len(sub_block)) - np.repeat(first, count)
-    size = chunk[sub_block]
-    at = out_first[sub_block] + index + np.where(split[sub_block], index // size + 1, 0)
-    block[at] = sub_block
-    f0[at] = index / count[sub_block]
-    f1[at] = (index + 1) / count[sub_block]
-    part[at] = np.where(split[sub_block], 2, 0)
-    # the chunks: before their first sub-move
-    ch_block = np.repeat(np.arange(n_blocks, dtype=np.int64), chunks)
-    ch_first = np.cumsum(chunks) - chunks
-    c = np.arange(len(ch_block)) - np.repeat(ch_first, chunks)
-    size = chunk[ch_block]
-    at = out_first[ch_block] + c * size + c
-    block[at] = ch_block
-    f0[at] = c * size / count[ch_block]
-    f1[at] = np.minimum((c + 1) * size, count[ch_block]) / count[ch_block]
-    part[at] = 1
-    return block, f0, f1, part
+    bits = np.full(len(sub_block), ALL_LEVELS, np.int8)
+    parts_block, parts_j0, parts_j1, parts_bits, parts_order = \
+        [sub_block], [index], [index + 1], [bits], [np.full(len(sub_block), len(chunks) + 1)]
+    for lv, chunk in enumerate(chunks, start=1):
+        bits[chunk[sub_block] > 1] &= np.int8(ALL_LEVELS & ~(1 << lv))
+        n_chunks = np.where(chunk > 1, -(-count // np.maximum(chunk, 1)), 0)
+        ch_block = np.repeat(blocks, n_chunks)
+        c = np.arange(len(ch_block)) - np.repeat(np.cumsum(n_chunks) - n_chunks, n_chunks)
+        size = chunk[ch_block]
+        parts_block.append(ch_block)
+        parts_j0.append(c * size)
+        parts_j1.append(np.minimum((c + 1) * size, count[ch_block]))
+        parts_bits.append(np.full(len(ch_block), 1 << lv, np.int8))
+        parts_order.append(np.full(len(ch_block), len(chunks) + 1 - lv))
+    block = np.concatenate(parts_block)
+    j0 = np.concatenate(parts_j0)
+    j1 = np.concatenate(parts_j1)
+    order = np.lexsort((np.concatenate(parts_order), j0, block))
+    return block[order], j0[order], j1[order], np.concatenate(parts_bits)[order]
 
 
 def program_moves(
@@ -342,7 +371,7 @@ def program_moves(
     tolerance: float,
     tool_length: float = 0.0,
     start_at_first: bool = True,
-    inner_reach: float | None = None,
+    level_reach: tuple[float, ...] = (),
 ) -> ToolMoves:
     """Expand a program into straight fixed-axis sub-moves within ``tolerance``.
 
@@ -365,12 +394,11 @@ def program_moves(
         zero joints); True makes the first block a move from its own end pose, so
         the unknown approach neither cuts nor collides. False sweeps it from
         ``program.start``.
-    inner_reach : float, optional
-        Reach of the tool's inner primitives (``ToolShape.inner_reach``): a turning
-        block whose sub-moves for that reach are at least twice as long is swept with
-        them for the inner primitives (``part`` 1, each before the sub-moves it
-        spans) and with the sub-moves for ``reach`` for the others (``part`` 2),
-        each primitive within ``tolerance``. None: the whole tool on every sub-move.
+    level_reach : tuple of float
+        Reach of the tool's primitives of level ``1, 2, ...`` (``ToolShape.level_reach``,
+        0: none): on a turning block whose sub-moves for that reach are at least twice
+        as long, that level is swept along chunks of the sub-moves (module doc). Empty:
+        the whole tool on every sub-move.
 
     Returns
     -------
@@ -381,17 +409,25 @@ def program_moves(
     poser = _Poser(kins, program, tool_length, start_at_first)
     blocks = np.arange(n_blocks, dtype=np.int64)
     count = _counts(poser, n_blocks, reach, tolerance)
-    chunk = np.ones(n_blocks, np.int64)
-    if inner_reach is not None and inner_reach < reach:
-        # a chunk spans whole sub-moves and is no longer than the inner sub-moves
-        chunk = np.maximum(1, count // _counts(poser, n_blocks, inner_reach, tolerance))
-    sub_block, f0, f1, part = _sequence(count, chunk)
-    tip0, _ = poser.at(sub_block, f0)
-    tip1, _ = poser.at(sub_block, f1)
+    # a level's chunk spans whole sub-moves and keeps the tolerance for its reach
+    chunks = [_chunk_sizes(poser, count, lv_reach, 2**lv, tolerance)
+              if 0.0 < lv_reach < reach else np.ones(n_blocks, np.int64)
+              for lv, lv_reach in enumerate(level_reach, start=1)]
+    sub_block, j0, j1, part = _sequence(count, chunks)
+    f0 = j0 / count[sub_block]
+    f1 = j1 / count[sub_block]
+    # the tip at every sub-move boundary once (a sub-move ends where the next starts)
+    bounds = count + 1
+    first_bound = np.cumsum(bounds) - bounds
+    bound_block = np.repeat(blocks, bounds)
+    bound_index = np.arange(len(bound_block)) - np.repeat(first_bound, bounds)
+    bound_tip, _ = poser.at(bound_block, bound_index / count[bound_block])
+    tip0 = bound_tip[first_bound[sub_block] + j0]
+    tip1 = bound_tip[first_bound[sub_block] + j1]
     _, axis_mid = poser.at(sub_block, 0.5 * (f0 + f1))
     # over-travel: at every sub-move end (TCP moves can pass a limit between blocks);
     # the chunks end where sub-moves do
-    fine = part != 1
+    fine = (part & 1) == 1  # the chunks never sweep level 0
     joints_sub = poser.machine_joints(sub_block[fine], f1[fine])
     joints_end = poser.machine_joints(blocks, np.ones(n_blocks))
     all_joints = np.vstack([poser.joints_prog[:1], joints_end])

@@ -380,8 +380,9 @@ class Stock:
         done : callable, optional
             Progress: called with the number of leading moves every grid has swept.
         parts : (m,) int8, optional
-            What each move sweeps (``ToolMoves.part``): 0 the whole tool, 1 only the
-            shape's ``inner`` cutter primitives, 2 the others. None: all 0.
+            The levels each move sweeps (``ToolMoves.part``: bit ``l`` for the
+            primitives of level ``l``, ``ToolShape.cutter_level``; the body is level
+            0). None: the whole tool on every move.
 
         Returns
         -------
@@ -398,13 +399,15 @@ class Stock:
         cuts[: len(shape.cutter)] = True
         strides = np.ones(len(prims), np.int64)
         strides[len(shape.cutter) :] = max(1, int(round(probe_pitch / self.pitch)))
-        whole = (1 << len(prims)) - 1
-        inner = (1 << shape.inner) - 1
-        masks = np.full(len(tips), whole, np.int64)
+        masks = np.full(len(tips), (1 << len(prims)) - 1, np.int64)
         if parts is not None:
-            parts = np.asarray(parts).reshape(-1)
-            masks[parts == 1] = inner
-            masks[parts == 2] = whole & ~inner
+            level = np.zeros(len(prims), np.int64)
+            level[: len(shape.cutter_level)] = shape.cutter_level
+            bits = np.asarray(parts, np.int64).reshape(-1)
+            # the primitives of every level a move's bits name
+            by_bits = np.array([sum(1 << p for p in range(len(prims)) if (b >> level[p]) & 1)
+                                for b in range(int(bits.max(initial=0)) + 1)], np.int64)
+            masks = by_bits[bits]
         out = np.zeros((len(tips), 3))
         job = (tips, moves, axes, ids, prims, cuts, strides, masks)
         threads = self.threads if self.threads is not None else default_threads()

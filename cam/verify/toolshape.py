@@ -29,7 +29,7 @@ Shapes:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -41,6 +41,10 @@ from cam.tools import Tool
 PRIMITIVE_COLUMNS = ("alpha", "beta", "gamma", "zlo", "zhi", "rmax")
 #: Frusta replacing a bull-nose corner.
 CORNER_SEGMENTS = 8
+#: Levels of cutter primitives swept along longer sub-moves (``ToolShape.cutter_level``).
+LEVELS = 2
+#: mm: a flute side is not split into a piece shorter than this.
+MIN_LEVEL_PIECE = 0.5
 
 
 def frustum(z0: float, z1: float, r0: float, r1: float) -> NDArray[np.float64]:
@@ -76,13 +80,14 @@ class ToolShape:
     profile_error : float
         Largest distance of the primitive outline from the true cutter outline, mm
         (0 for ball and flat end mills).
-    inner : int
-        The leading cutter primitives (the ball of a ball end mill, a bull-nose's
-        corner) that reach no farther than half of ``reach`` from the tip: swept along
-        their own, longer sub-moves (``cam.verify.motion``); 0: none.
-    inner_reach : float
-        Largest distance of a point of those primitives from the tip, mm (``reach``
-        when there are none).
+    cutter_level : (m,) int8
+        Level of each cutter primitive: ``l > 0`` when it reaches no farther than
+        ``reach / 2**l`` from the tip (the ball, the lower part of the flutes; a flute
+        side is split at those heights), swept along sub-moves for that reach
+        (``cam.verify.motion``); 0: along the sub-moves for ``reach``, with the body.
+    level_reach : tuple of float
+        Largest distance from the tip of a point of level ``l``'s primitives, mm, at
+        index ``l - 1`` (0 when the level has none).
     """
 
     cutter: NDArray[np.float64]
@@ -90,8 +95,50 @@ class ToolShape:
     reach: float
     body_reach: float
     profile_error: float
-    inner: int = 0
-    inner_reach: float = 0.0
+    cutter_level: NDArray[np.int8] = field(default_factory=lambda: np.zeros(0, np.int8))
+    level_reach: tuple[float, ...] = ()
+
+
+def _radius(row: NDArray[np.float64], z: float) -> float:
+    """Radius of a primitive at height ``z`` (0 outside it), mm."""
+    alpha, beta, gamma = (float(v) for v in row[:3])
+    return math.sqrt(max(-(alpha * z * z + beta * z + gamma), 0.0))
+
+
+def _levelled(cutter: NDArray[np.float64], reach: float
+              ) -> tuple[NDArray[np.float64], NDArray[np.int8]]:
+    """The cutter's primitives with frusta split where their reach crosses
+    ``reach / 2**l`` (``l = 1..LEVELS``), and the level of each: the largest ``l``
+    with the piece within ``reach / 2**l`` of the tip (0: none)."""
+    rows: list[NDArray[np.float64]] = []
+    for row in cutter:
+        zlo, zhi = float(row[3]), float(row[4])
+        cuts = []
+        if row[0] <= 0.0:  # a frustum: z^2 + r^2 is convex in z; split where it rises
+            for lv in range(LEVELS, 0, -1):
+                limit = reach / 2.0**lv
+                a, b, c = 1.0 - row[0], -row[1], -(row[2] + limit * limit)
+                disc = b * b - 4.0 * a * c
+                if disc <= 0.0:
+                    continue
+                z = (-b + math.sqrt(disc)) / (2.0 * a)
+                if zlo + MIN_LEVEL_PIECE < z < zhi - MIN_LEVEL_PIECE \
+                        and math.hypot(zlo, _radius(row, zlo)) < limit:
+                    cuts.append(z)
+        ends = [zlo, *sorted(cuts), zhi]
+        for z0, z1 in zip(ends[:-1], ends[1:], strict=True):
+            piece = row.copy()
+            if len(ends) > 2:
+                piece[3], piece[4] = z0, z1
+                piece[5] = max(_radius(row, z0), _radius(row, z1))
+            rows.append(piece)
+    levels = []
+    for piece in rows:
+        lv = 0
+        while lv < LEVELS and primitive_reach(piece) <= reach / 2.0 ** (lv + 1):
+            lv += 1
+        levels.append(lv)
+    return np.vstack(rows), np.array(levels, np.int8)
 
 
 def primitive_reach(row: NDArray[np.float64]) -> float:
@@ -169,8 +216,7 @@ def tool_shape(tool: Tool, corner_segments: int = CORNER_SEGMENTS) -> ToolShape:
     top = tool.length
     widest = max([tool.flute_top_radius,
                   *(max(s.r0, s.r1) for s in (*tool.shank_segments(), *tool.holder))])
-    inner = 0
-    while inner < len(cutter) - 1 and primitive_reach(cutter[inner]) <= 0.5 * reach:
-        inner += 1
-    inner_reach = max((primitive_reach(row) for row in cutter[:inner]), default=reach)
-    return ToolShape(cutter, body, reach, math.hypot(top, widest), error, inner, inner_reach)
+    cutter, level = _levelled(cutter, reach)
+    level_reach = tuple(max((primitive_reach(row) for row in cutter[level == lv]), default=0.0)
+                        for lv in range(1, LEVELS + 1))
+    return ToolShape(cutter, body, reach, math.hypot(top, widest), error, level, level_reach)

@@ -423,14 +423,15 @@ def test_a_pool_overflow_resumes_where_it_stopped() -> None:
 
 
 def test_moves_of_part_of_the_tool_match_the_reference_sweep() -> None:
-    """``Stock.sweep(parts=...)``: moves that sweep only the inner primitives (the ball),
-    or every primitive but those, give the reference sweep's intervals with the same
+    """``Stock.sweep(parts=...)``: moves that sweep only level 1 (here the ball), only
+    level 0 (the rest), or both give the reference sweep's intervals with the same
     primitive masks."""
-    shape = dataclasses.replace(tool_shape(_tool("ball")), inner=1, inner_reach=4.0)
+    shape = dataclasses.replace(tool_shape(_tool("ball")),
+                                cutter_level=np.array([1, 0], np.int8), level_reach=(4.0,))
     tips, moves, axes = _moves(7, 120, True)
-    parts = np.random.default_rng(7).integers(0, 3, len(tips)).astype(np.int8)
+    parts = np.random.default_rng(7).integers(1, 4, len(tips)).astype(np.int8)
     whole = (1 << (len(shape.cutter) + len(shape.body))) - 1
-    masks = np.where(parts == 1, 1, np.where(parts == 2, whole & ~1, whole)).astype(np.int64)
+    masks = np.where(parts == 2, 1, np.where(parts == 1, whole & ~1, whole)).astype(np.int64)
     fast = Stock.box([-10.0, -8.0, -8.0], [10.0, 8.0, 0.0], 0.2)
     slow = Stock.box([-10.0, -8.0, -8.0], [10.0, 8.0, 0.0], 0.2)
     plain = Stock.box([-10.0, -8.0, -8.0], [10.0, 8.0, 0.0], 0.2)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from cam.tools import Segment, Tool
-from cam.verify.motion import program_moves
+from cam.verify.motion import ALL_LEVELS, program_moves
 from cam.verify.stock import Stock
 from cam.verify.toolshape import tool_shape
 from postproc.kinematics import kinematics_for
@@ -168,28 +168,31 @@ def test_a_joint_block_after_tcp_starts_at_the_joints_of_the_last_tip(machine) -
     assert np.linalg.norm(up) == pytest.approx(50.0)
 
 
-def test_inner_primitives_sweep_their_own_longer_sub_moves(machine) -> None:  # type: ignore[no-untyped-def]
-    """With ``inner_reach`` a turning block is swept by the ball along chunks of the
-    sub-moves (each within the tolerance for the ball's reach, ahead of the sub-moves
-    it spans) and by the rest of the tool along the sub-moves; the removed volume is
-    the whole tool's on every sub-move within the tolerance's share of it."""
+def test_levels_of_the_tool_sweep_their_own_longer_sub_moves(machine) -> None:  # type: ignore[no-untyped-def]
+    """With ``level_reach`` a turning block is swept by the ball and the lower flutes
+    along chunks of the sub-moves (each within the tolerance for that level's reach,
+    ahead of the sub-moves it spans) and by the rest of the tool along the sub-moves;
+    the removed volume is the whole tool's on every sub-move within the tolerance's
+    share of it."""
     m, kins = machine
     shape = tool_shape(BALL)
-    assert shape.inner == 1 and shape.inner_reach == pytest.approx(6.0)
+    assert list(shape.cutter_level) == [1, 1, 0]  # ball, flutes to 6 mm, the rest
+    assert shape.level_reach[0] == pytest.approx(0.5 * shape.reach)
     program = _program([[6.0, 4.0, 2.0, -25.0, 40.0], [0.0, 0.0, 1.0, -5.0, 0.0]],
                        start=[0.0, -4.0, 3.0, 0.0, 0.0])
     tol = 0.01
     plain = program_moves(program, m, kins, shape.reach, tol, start_at_first=False)
     split = program_moves(program, m, kins, shape.reach, tol, start_at_first=False,
-                          inner_reach=shape.inner_reach)
+                          level_reach=shape.level_reach)
     assert split.part is not None
-    fine = split.part != 1
+    fine = (split.part & 1) == 1
     # the sub-moves themselves are unchanged; every block is chunked
     np.testing.assert_array_equal(split.tips[fine], plain.tips)
     np.testing.assert_array_equal(split.moves[fine], plain.moves)
     np.testing.assert_array_equal(split.axes[fine], plain.axes)
-    assert set(split.part[fine]) == {2}
-    chunks = np.flatnonzero(split.part == 1)
+    assert set(split.part[fine] & 3) == {1} and set(split.part[~fine]) == {2}
+    assert plain.part is not None and set(plain.part) == {ALL_LEVELS}  # the whole tool
+    chunks = np.flatnonzero(~fine)
     assert 1 < len(chunks) <= fine.sum() / 2
     ends = split.tips + split.moves
     for i, c in enumerate(chunks):
@@ -200,10 +203,10 @@ def test_inner_primitives_sweep_their_own_longer_sub_moves(machine) -> None:  # 
         assert split.block[c] == split.block[c + 1] == split.block[last]
         np.testing.assert_array_equal(split.tips[c], split.tips[c + 1])
         np.testing.assert_array_equal(ends[c], ends[last])
-        # its fixed axis is within tol/2 of the true axes at its sub-moves' ends (the
-        # quarter-point bound of the module doc, for the ball's reach)
+        # its fixed axis is within tol/2 of the sub-moves' axes, for its level's reach
+        # (the quarter-point bound of the module doc)
         angles = np.arccos(np.clip(split.axes[c + 1:stop] @ split.axes[c], -1.0, 1.0))
-        assert shape.inner_reach * angles.max() <= 0.5 * tol * 1.05
+        assert shape.level_reach[0] * angles.max() <= 0.5 * tol * 1.05
     assert len(split.overtravel) == len(plain.overtravel)
     lower, upper = np.array([-10.0, -10.0, -4.0]), np.array([12.0, 10.0, 2.0])
     one, two = Stock.box(lower, upper, 0.1), Stock.box(lower, upper, 0.1)
@@ -214,3 +217,20 @@ def test_inner_primitives_sweep_their_own_longer_sub_moves(machine) -> None:  # 
     removed_plain, removed_split = before - one.volume(), before - two.volume()
     assert removed_plain > 10.0
     assert removed_split == pytest.approx(removed_plain, rel=1e-3)
+
+
+def test_a_flute_side_is_split_where_its_reach_halves() -> None:
+    """``tool_shape`` splits the flutes at the heights where their reach is half and a
+    quarter of the cutter's; the pieces make the same side."""
+    long_ball = Tool(name="ball4_long", number=1, shape="ball", diameter=4.0,
+                     corner_radius=2.0, flute_length=24.0, shank_diameter=4.0,
+                     stickout=40.0)
+    shape = tool_shape(long_ball)
+    assert list(shape.cutter_level) == [2, 2, 1, 0]
+    cutter = shape.cutter
+    assert cutter[1, 3] == 2.0 and cutter[-1, 4] == 24.0
+    np.testing.assert_array_equal(cutter[1:-1, 4], cutter[2:, 3])  # end to end
+    for row, lv in zip(cutter, shape.cutter_level, strict=True):
+        top = math.hypot(row[4], 2.0) if row[0] == 0.0 else row[4]
+        assert top <= shape.reach / 2**lv + 1e-9
+    assert shape.level_reach == pytest.approx((0.5 * shape.reach, 0.25 * shape.reach))
