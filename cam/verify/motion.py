@@ -45,6 +45,7 @@ minutes; rapids the longest axis travel over that axis's maximum velocity.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -250,9 +251,11 @@ def _overtravel(
 
 
 def _outside(poser: Any, block: NDArray[np.int64], c0: NDArray[np.float64],
-             c1: NDArray[np.float64], reach: float, half: float) -> NDArray[np.bool_]:
+             c1: NDArray[np.float64], reach: float, half: float,
+             longest: float = math.inf) -> NDArray[np.bool_]:
     """Straight moves of ``block`` from parameter ``c0`` to ``c1`` whose fixed mid axis
-    or straight tip leave ``half`` at a reach of ``reach`` (quarter points, module doc)."""
+    or straight tip leave ``half`` at a reach of ``reach`` (quarter points, module doc),
+    or whose tip travels farther than ``longest``."""
     quarter = np.stack([c0, 0.75 * c0 + 0.25 * c1, 0.5 * (c0 + c1), 0.25 * c0 + 0.75 * c1, c1])
     tips_q, axes_q = poser.at(np.tile(block, 5), quarter.ravel())
     tips_q = tips_q.reshape(5, -1, 3)
@@ -266,15 +269,16 @@ def _outside(poser: Any, block: NDArray[np.int64], c0: NDArray[np.float64],
         along = np.sum(rel * seg, axis=1) / length2
         off = rel - along[:, None] * seg
         worst = np.maximum(worst, np.linalg.norm(off, axis=1))
-    bad: NDArray[np.bool_] = (reach * angle > half) | (worst > half)
+    bad: NDArray[np.bool_] = (reach * angle > half) | (worst > half) | (length2 > longest**2)
     return bad
 
 
 def _chunk_sizes(poser: Any, count: NDArray[np.int64], reach: float, start: int,
-                 tolerance: float) -> NDArray[np.int64]:
+                 tolerance: float, longest: float) -> NDArray[np.int64]:
     """Sub-moves per chunk of a level reaching ``reach``: ``start`` (``2**l``), halved
-    on the blocks where a chunk leaves the tolerance (the sub-moves' test) until none
-    does; 1 on blocks of fewer than two sub-moves."""
+    on the blocks where a chunk leaves the tolerance (the sub-moves' test) or its tip
+    travels farther than ``longest`` until none does; 1 on blocks of fewer than two
+    sub-moves."""
     size = np.where(count >= 2, np.minimum(start, count), 1).astype(np.int64)
     pending = np.flatnonzero(size > 1)
     while len(pending):
@@ -283,7 +287,8 @@ def _chunk_sizes(poser: Any, count: NDArray[np.int64], reach: float, start: int,
         c = np.arange(len(cb)) - np.repeat(np.cumsum(n_chunks) - n_chunks, n_chunks)
         c0 = c * size[cb] / count[cb]
         c1 = np.minimum((c + 1) * size[cb], count[cb]) / count[cb]
-        failing = np.unique(cb[_outside(poser, cb, c0, c1, reach, 0.5 * tolerance)])
+        failing = np.unique(cb[_outside(poser, cb, c0, c1, reach, 0.5 * tolerance,
+                                        longest)])
         size[failing] //= 2
         pending = failing[size[failing] > 1]
     return size
@@ -409,8 +414,11 @@ def program_moves(
     poser = _Poser(kins, program, tool_length, start_at_first)
     blocks = np.arange(n_blocks, dtype=np.int64)
     count = _counts(poser, n_blocks, reach, tolerance)
-    # a level's chunk spans whole sub-moves and keeps the tolerance for its reach
-    chunks = [_chunk_sizes(poser, count, lv_reach, 2**lv, tolerance)
+    # a level's chunk spans whole sub-moves and keeps the tolerance for its reach; it
+    # runs ahead of the body (probed on the sub-moves) by less than half the height
+    # between the level and the top of the flutes, so it never cuts stock the body
+    # touches before it gets there
+    chunks = [_chunk_sizes(poser, count, lv_reach, 2**lv, tolerance, 0.5 * (reach - lv_reach))
               if 0.0 < lv_reach < reach else np.ones(n_blocks, np.int64)
               for lv, lv_reach in enumerate(level_reach, start=1)]
     sub_block, j0, j1, part = _sequence(count, chunks)

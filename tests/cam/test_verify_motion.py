@@ -234,3 +234,21 @@ def test_a_flute_side_is_split_where_its_reach_halves() -> None:
         top = math.hypot(row[4], 2.0) if row[0] == 0.0 else row[4]
         assert top <= shape.reach / 2**lv + 1e-9
     assert shape.level_reach == pytest.approx((0.5 * shape.reach, 0.25 * shape.reach))
+
+
+def test_a_chunk_never_runs_far_ahead_of_the_body(machine) -> None:  # type: ignore[no-untyped-def]
+    """A long block that turns a little has long sub-moves: its chunks are cut short so
+    that the ball never gets more than half the height between its level and the top
+    of the flutes ahead of the shank, which is probed on the sub-moves."""
+    m, kins = machine
+    shape = tool_shape(BALL)
+    program = _program([[40.0, 0.0, 2.0, -1.0, 2.0]], start=[-40.0, 0.0, 2.0, 0.0, 0.0])
+    split = program_moves(program, m, kins, shape.reach, 0.01, start_at_first=False,
+                          level_reach=shape.level_reach)
+    assert split.part is not None
+    chunk = split.part == 2
+    fine = (split.part & 1) == 1
+    longest = 0.5 * (shape.reach - shape.level_reach[0])
+    assert np.linalg.norm(split.moves[fine], axis=1).max() > longest  # long sub-moves
+    assert chunk.any() or set(split.part) == {ALL_LEVELS}
+    assert np.all(np.linalg.norm(split.moves[chunk], axis=1) <= longest + 1e-9)
