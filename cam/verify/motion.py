@@ -25,18 +25,15 @@ sub-move's quarter points (for the near-uniform rotation inside one block the
 largest deviation of the axis from the mid axis is at the sub-move ends, and the
 sagitta of the tip path at its middle) and doubled until they hold.
 
-The bound holds per primitive with that primitive's own reach. The ball of a ball end
-mill reaches ``2R`` from the tip, its flutes' top ``hypot(flute, R)``: on a turning
-block the ball and the lower flutes need several times fewer sub-moves than the
-flutes' top. ``ToolShape`` gives each cutter primitive a level ``l`` (within
-``reach / 2**l`` of the tip; a flute side is split at those heights) and each level its
-reach (``level_reach``). With ``level_reach`` level ``l`` is swept along chunks of
-``2**l`` consecutive sub-moves, halved on a block until every chunk passes the
-sub-moves' test for that level's reach (the same tolerance), each chunk before the
-sub-moves it spans, the higher levels first, the sub-moves sweeping level 0
-and the body (``ToolMoves.part``). Every end a block leaves carries the block's id
-either way; what changes is the order in which the pieces meet a ray inside one chunk,
-and the longest cut of one entry along a ray (a chunk is longer).
+The bound holds per primitive with its own reach: the ball and the lower flutes need
+several times fewer sub-moves than the flutes' top. ``ToolShape`` gives each cutter
+primitive a level ``l`` (within ``reach / 2**l`` of the tip; flute sides are split
+there) and each level its reach (``level_reach``). With ``level_reach``, level ``l`` is
+swept along chunks of ``2**l`` sub-moves, halved on a block until every chunk passes
+the sub-moves' test for that reach, each chunk before the sub-moves it spans (higher
+levels first); the sub-moves sweep level 0 and the body (``ToolMoves.part``). A block's
+ends keep its id either way; what changes is the order in which the pieces meet a ray
+inside a chunk, and the longest cut of one entry along a ray (a chunk is longer).
 
 Time: G94 blocks take ``length / F`` (length of the X, Y, Z path; of the rotary path in
 degrees when the linear axes do not move, LinuxCNC's rule); G93 blocks ``1 / F``
@@ -52,12 +49,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from cam.verify.toolshape import ALL_LEVELS
 from postproc.program import FeedMode, MachineProgram, Motion
 
 #: Sub-moves per block at most (guards against a runaway subdivision).
 MAX_SUBMOVES = 4096
-#: ``ToolMoves.part`` of a move that sweeps the whole tool (every level's bit).
-ALL_LEVELS = 0x7F
 
 
 @dataclass
@@ -250,20 +246,15 @@ def _overtravel(
     return found
 
 
-def _outside(poser: Any, block: NDArray[np.int64], c0: NDArray[np.float64],
-             c1: NDArray[np.float64], reach: float, half: float,
-             longest: float = math.inf) -> NDArray[np.bool_]:
-    """Straight moves of ``block`` from parameter ``c0`` to ``c1`` whose fixed mid axis
-    or straight tip leave ``half`` at a reach of ``reach`` (quarter points, module doc),
-    or whose tip travels farther than ``longest``."""
-    quarter = np.stack([c0, 0.75 * c0 + 0.25 * c1, 0.5 * (c0 + c1), 0.25 * c0 + 0.75 * c1, c1])
-    tips_q, axes_q = poser.at(np.tile(block, 5), quarter.ravel())
-    tips_q = tips_q.reshape(5, -1, 3)
-    axes_q = axes_q.reshape(5, -1, 3)
+def _fails(tips_q: NDArray[np.float64], axes_q: NDArray[np.float64], reach: float,
+           half: float, longest: float = math.inf) -> NDArray[np.bool_]:
+    """Straight moves, given the true tips and axes (5, n, 3) at their quarter points,
+    whose fixed mid axis or straight tip leave ``half`` at a reach of ``reach`` (module
+    doc), or whose tip travels farther than ``longest``."""
     angle = np.max(_angles(axes_q, axes_q[2][None]), axis=0)
     seg = tips_q[4] - tips_q[0]
     length2 = np.maximum(np.sum(seg * seg, axis=1), 1e-300)
-    worst = np.zeros(len(block))
+    worst = np.zeros(tips_q.shape[1])
     for q in (1, 2, 3):
         rel = tips_q[q] - tips_q[0]
         along = np.sum(rel * seg, axis=1) / length2
@@ -273,22 +264,66 @@ def _outside(poser: Any, block: NDArray[np.int64], c0: NDArray[np.float64],
     return bad
 
 
-def _chunk_sizes(poser: Any, count: NDArray[np.int64], reach: float, start: int,
-                 tolerance: float, longest: float) -> NDArray[np.int64]:
+def _outside(poser: Any, block: NDArray[np.int64], c0: NDArray[np.float64],
+             c1: NDArray[np.float64], reach: float, half: float) -> NDArray[np.bool_]:
+    """``_fails`` of the moves of ``block`` from parameter ``c0`` to ``c1``."""
+    quarter = np.stack([c0, 0.75 * c0 + 0.25 * c1, 0.5 * (c0 + c1), 0.25 * c0 + 0.75 * c1, c1])
+    tips_q, axes_q = poser.at(np.tile(block, 5), quarter.ravel())
+    return _fails(tips_q.reshape(5, -1, 3), axes_q.reshape(5, -1, 3), reach, half)
+
+
+class _HalfSteps:
+    """True tips and axes at every half sub-move of every block: ``h = 0 .. 2 count``
+    at the parameter ``h / (2 count)`` (even ``h``: the sub-moves' ends, odd: their
+    middles), each evaluated once."""
+
+    def __init__(self, poser: Any, count: NDArray[np.int64]) -> None:
+        steps = 2 * count + 1
+        self.first = np.cumsum(steps) - steps
+        block = np.repeat(np.arange(len(count), dtype=np.int64), steps)
+        index = np.arange(len(block)) - np.repeat(self.first, steps)
+        self.tip, self.axis = poser.at(block, index / (2 * count[block]))
+
+    def at(self, block: NDArray[np.int64], h: NDArray[np.int64]
+           ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Tips and axes at half steps ``h`` of ``block``."""
+        row = self.first[block] + h
+        return self.tip[row], self.axis[row]
+
+
+def _chunk_sizes(poser: Any, half_steps: _HalfSteps, count: NDArray[np.int64],
+                 reach: float, start: int, tolerance: float, longest: float
+                 ) -> NDArray[np.int64]:
     """Sub-moves per chunk of a level reaching ``reach``: ``start`` (``2**l``), halved
     on the blocks where a chunk leaves the tolerance (the sub-moves' test) or its tip
     travels farther than ``longest`` until none does; 1 on blocks of fewer than two
-    sub-moves."""
+    sub-moves. A chunk of an even number of sub-moves has its quarter points on half
+    steps (``half_steps``); a block's last, shorter chunk may need its own."""
     size = np.where(count >= 2, np.minimum(start, count), 1).astype(np.int64)
     pending = np.flatnonzero(size > 1)
     while len(pending):
         n_chunks = -(-count[pending] // size[pending])
         cb = np.repeat(pending, n_chunks)
         c = np.arange(len(cb)) - np.repeat(np.cumsum(n_chunks) - n_chunks, n_chunks)
-        c0 = c * size[cb] / count[cb]
-        c1 = np.minimum((c + 1) * size[cb], count[cb]) / count[cb]
-        failing = np.unique(cb[_outside(poser, cb, c0, c1, reach, 0.5 * tolerance,
-                                        longest)])
+        j0 = c * size[cb]
+        j1 = np.minimum(j0 + size[cb], count[cb])
+        span = j1 - j0
+        even = span % 2 == 0
+        bad = np.zeros(len(cb), np.bool_)
+        if even.any():
+            h = np.stack([2 * j0, 2 * j0 + span // 2, j0 + j1, 2 * j1 - span // 2, 2 * j1])
+            tips_q, axes_q = half_steps.at(np.tile(cb[even], 5), h[:, even].ravel())
+            bad[even] = _fails(tips_q.reshape(5, -1, 3), axes_q.reshape(5, -1, 3), reach,
+                               0.5 * tolerance, longest)
+        odd = ~even
+        if odd.any():
+            tips_q, axes_q = poser.at(
+                np.tile(cb[odd], 5),
+                (np.stack([4 * j0, 3 * j0 + j1, 2 * (j0 + j1), j0 + 3 * j1, 4 * j1])[:, odd]
+                 / (4 * count[cb[odd]])).ravel())
+            bad[odd] = _fails(tips_q.reshape(5, -1, 3), axes_q.reshape(5, -1, 3), reach,
+                              0.5 * tolerance, longest)
+        failing = np.unique(cb[bad])
         size[failing] //= 2
         pending = failing[size[failing] > 1]
     return size
@@ -414,25 +449,22 @@ def program_moves(
     poser = _Poser(kins, program, tool_length, start_at_first)
     blocks = np.arange(n_blocks, dtype=np.int64)
     count = _counts(poser, n_blocks, reach, tolerance)
+    # every entry's ends and middle, and the chunks' tests, from one evaluation of each
+    # half sub-move (a sub-move ends where the next starts)
+    half_steps = _HalfSteps(poser, count)
     # a level's chunk spans whole sub-moves and keeps the tolerance for its reach; it
     # runs ahead of the body (probed on the sub-moves) by less than half the height
     # between the level and the top of the flutes, so it never cuts stock the body
     # touches before it gets there
-    chunks = [_chunk_sizes(poser, count, lv_reach, 2**lv, tolerance, 0.5 * (reach - lv_reach))
+    chunks = [_chunk_sizes(poser, half_steps, count, lv_reach, 2**lv, tolerance,
+                           0.5 * (reach - lv_reach))
               if 0.0 < lv_reach < reach else np.ones(n_blocks, np.int64)
               for lv, lv_reach in enumerate(level_reach, start=1)]
     sub_block, j0, j1, part = _sequence(count, chunks)
-    f0 = j0 / count[sub_block]
     f1 = j1 / count[sub_block]
-    # the tip at every sub-move boundary once (a sub-move ends where the next starts)
-    bounds = count + 1
-    first_bound = np.cumsum(bounds) - bounds
-    bound_block = np.repeat(blocks, bounds)
-    bound_index = np.arange(len(bound_block)) - np.repeat(first_bound, bounds)
-    bound_tip, _ = poser.at(bound_block, bound_index / count[bound_block])
-    tip0 = bound_tip[first_bound[sub_block] + j0]
-    tip1 = bound_tip[first_bound[sub_block] + j1]
-    _, axis_mid = poser.at(sub_block, 0.5 * (f0 + f1))
+    tip0, _ = half_steps.at(sub_block, 2 * j0)
+    tip1, _ = half_steps.at(sub_block, 2 * j1)
+    _, axis_mid = half_steps.at(sub_block, j0 + j1)
     # over-travel: at every sub-move end (TCP moves can pass a limit between blocks);
     # the chunks end where sub-moves do
     fine = (part & 1) == 1  # the chunks never sweep level 0

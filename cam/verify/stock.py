@@ -25,7 +25,7 @@ from cam.verify.dexel import TILE as TILE  # re-exported (tests)
 from cam.verify.dexel import DexelGrid
 from cam.verify.raycast import cast_mesh
 from cam.verify.schedule import sweep_grids
-from cam.verify.toolshape import ToolShape
+from cam.verify.toolshape import ALL_LEVELS, ToolShape, merged_levels
 from impeller_cam.atomic import write_bytes_atomic
 from impeller_cam.errors import InputError
 from impeller_cam.threads import default_threads
@@ -394,13 +394,15 @@ class Stock:
         moves = np.ascontiguousarray(moves, dtype=np.float64).reshape(-1, 3)
         axes = np.ascontiguousarray(axes, dtype=np.float64).reshape(-1, 3)
         ids = np.ascontiguousarray(move_ids, dtype=np.int32).reshape(-1)
-        prims = np.ascontiguousarray(np.vstack([shape.cutter, shape.body]))
+        whole = parts is None or bool(np.all(np.asarray(parts) == ALL_LEVELS))
+        cutter = merged_levels(shape.cutter) if whole else shape.cutter
+        prims = np.ascontiguousarray(np.vstack([cutter, shape.body]))
         cuts = np.zeros(len(prims), np.bool_)
-        cuts[: len(shape.cutter)] = True
+        cuts[: len(cutter)] = True
         strides = np.ones(len(prims), np.int64)
-        strides[len(shape.cutter) :] = max(1, int(round(probe_pitch / self.pitch)))
+        strides[len(cutter) :] = max(1, int(round(probe_pitch / self.pitch)))
         masks = np.full(len(tips), (1 << len(prims)) - 1, np.int64)
-        if parts is not None:
+        if not whole:
             level = np.zeros(len(prims), np.int64)
             level[: len(shape.cutter_level)] = shape.cutter_level
             bits = np.asarray(parts, np.int64).reshape(-1)

@@ -45,6 +45,8 @@ CORNER_SEGMENTS = 8
 LEVELS = 2
 #: mm: a flute side is not split into a piece shorter than this.
 MIN_LEVEL_PIECE = 0.5
+#: Level bits of a move that sweeps the whole tool (``cam.verify.motion.ToolMoves.part``).
+ALL_LEVELS = 0x7F
 
 
 def frustum(z0: float, z1: float, r0: float, r1: float) -> NDArray[np.float64]:
@@ -139,6 +141,19 @@ def _levelled(cutter: NDArray[np.float64], reach: float
             lv += 1
         levels.append(lv)
     return np.vstack(rows), np.array(levels, np.int8)
+
+
+def merged_levels(cutter: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The cutter's primitives with the pieces ``tool_shape`` split a flute side into
+    joined again (the same solid, fewer primitives: for moves of the whole tool)."""
+    rows = [cutter[0].copy()] if len(cutter) else []
+    for row in cutter[1:]:
+        last = rows[-1]
+        if np.array_equal(last[:3], row[:3]) and last[4] == row[3]:
+            last[4], last[5] = row[4], max(last[5], row[5])
+        else:
+            rows.append(row.copy())
+    return np.vstack(rows) if rows else np.zeros((0, 6))
 
 
 def primitive_reach(row: NDArray[np.float64]) -> float:

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from cam.tools import Segment, Tool
-from cam.verify.motion import ALL_LEVELS, program_moves
+from cam.verify.motion import program_moves
 from cam.verify.stock import Stock
-from cam.verify.toolshape import tool_shape
+from cam.verify.toolshape import ALL_LEVELS, merged_levels, tool_shape
 from postproc.kinematics import kinematics_for
 from postproc.machine import load_machine
 from postproc.program import FeedMode, MachineProgram, Motion
@@ -234,6 +234,10 @@ def test_a_flute_side_is_split_where_its_reach_halves() -> None:
         top = math.hypot(row[4], 2.0) if row[0] == 0.0 else row[4]
         assert top <= shape.reach / 2**lv + 1e-9
     assert shape.level_reach == pytest.approx((0.5 * shape.reach, 0.25 * shape.reach))
+    # joined again for moves of the whole tool: the unsplit flute side
+    whole = merged_levels(cutter)
+    assert whole.shape == (2, 6)
+    np.testing.assert_array_equal(whole[1], [*cutter[1, :3], 2.0, 24.0, 2.0])
 
 
 def test_a_chunk_never_runs_far_ahead_of_the_body(machine) -> None:  # type: ignore[no-untyped-def]
