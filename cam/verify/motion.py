@@ -246,6 +246,14 @@ def _overtravel(
     return found
 
 
+def _spans(owner: NDArray[np.int64], n: NDArray[np.int64]
+           ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """``n[i]`` items for each ``owner[i]``: every item's owner and its index among
+    its owner's (0 .. n - 1)."""
+    first = np.cumsum(n) - n
+    return np.repeat(owner, n), np.arange(int(n.sum())) - np.repeat(first, n)
+
+
 def _fails(tips_q: NDArray[np.float64], axes_q: NDArray[np.float64], reach: float,
            half: float, longest: float = math.inf) -> NDArray[np.bool_]:
     """Straight moves, given the true tips and axes (5, n, 3) at their quarter points,
@@ -265,11 +273,12 @@ def _fails(tips_q: NDArray[np.float64], axes_q: NDArray[np.float64], reach: floa
 
 
 def _outside(poser: Any, block: NDArray[np.int64], c0: NDArray[np.float64],
-             c1: NDArray[np.float64], reach: float, half: float) -> NDArray[np.bool_]:
+             c1: NDArray[np.float64], reach: float, half: float,
+             longest: float = math.inf) -> NDArray[np.bool_]:
     """``_fails`` of the moves of ``block`` from parameter ``c0`` to ``c1``."""
     quarter = np.stack([c0, 0.75 * c0 + 0.25 * c1, 0.5 * (c0 + c1), 0.25 * c0 + 0.75 * c1, c1])
     tips_q, axes_q = poser.at(np.tile(block, 5), quarter.ravel())
-    return _fails(tips_q.reshape(5, -1, 3), axes_q.reshape(5, -1, 3), reach, half)
+    return _fails(tips_q.reshape(5, -1, 3), axes_q.reshape(5, -1, 3), reach, half, longest)
 
 
 class _HalfSteps:
@@ -280,8 +289,7 @@ class _HalfSteps:
     def __init__(self, poser: Any, count: NDArray[np.int64]) -> None:
         steps = 2 * count + 1
         self.first = np.cumsum(steps) - steps
-        block = np.repeat(np.arange(len(count), dtype=np.int64), steps)
-        index = np.arange(len(block)) - np.repeat(self.first, steps)
+        block, index = _spans(np.arange(len(count), dtype=np.int64), steps)
         self.tip, self.axis = poser.at(block, index / (2 * count[block]))
 
     def at(self, block: NDArray[np.int64], h: NDArray[np.int64]
@@ -302,9 +310,7 @@ def _chunk_sizes(poser: Any, half_steps: _HalfSteps, count: NDArray[np.int64],
     size = np.where(count >= 2, np.minimum(start, count), 1).astype(np.int64)
     pending = np.flatnonzero(size > 1)
     while len(pending):
-        n_chunks = -(-count[pending] // size[pending])
-        cb = np.repeat(pending, n_chunks)
-        c = np.arange(len(cb)) - np.repeat(np.cumsum(n_chunks) - n_chunks, n_chunks)
+        cb, c = _spans(pending, -(-count[pending] // size[pending]))
         j0 = c * size[cb]
         j1 = np.minimum(j0 + size[cb], count[cb])
         span = j1 - j0
@@ -317,12 +323,9 @@ def _chunk_sizes(poser: Any, half_steps: _HalfSteps, count: NDArray[np.int64],
                                0.5 * tolerance, longest)
         odd = ~even
         if odd.any():
-            tips_q, axes_q = poser.at(
-                np.tile(cb[odd], 5),
-                (np.stack([4 * j0, 3 * j0 + j1, 2 * (j0 + j1), j0 + 3 * j1, 4 * j1])[:, odd]
-                 / (4 * count[cb[odd]])).ravel())
-            bad[odd] = _fails(tips_q.reshape(5, -1, 3), axes_q.reshape(5, -1, 3), reach,
-                              0.5 * tolerance, longest)
+            ob = cb[odd]
+            bad[odd] = _outside(poser, ob, j0[odd] / count[ob], j1[odd] / count[ob], reach,
+                                0.5 * tolerance, longest)
         failing = np.unique(cb[bad])
         size[failing] //= 2
         pending = failing[size[failing] > 1]
@@ -352,9 +355,7 @@ def _counts(poser: Any, n_blocks: int, reach: float, tolerance: float) -> NDArra
     for _ in range(12):
         if not len(pending):
             break
-        cb = np.repeat(pending, count[pending])
-        first = np.cumsum(count[pending]) - count[pending]
-        index = np.arange(len(cb)) - np.repeat(first, count[pending])
+        cb, index = _spans(pending, count[pending])
         c0 = index / count[cb]
         c1 = (index + 1) / count[cb]
         bad = _outside(poser, cb, c0, c1, reach, half)
@@ -379,17 +380,13 @@ def _sequence(count: NDArray[np.int64], chunks: list[NDArray[np.int64]]
     """
     n_blocks = len(count)
     blocks = np.arange(n_blocks, dtype=np.int64)
-    sub_block = np.repeat(blocks, count)
-    first = np.cumsum(count) - count
-    index = np.arange(len(sub_block)) - np.repeat(first, count)
+    sub_block, index = _spans(blocks, count)
     bits = np.full(len(sub_block), ALL_LEVELS, np.int8)
     parts_block, parts_j0, parts_j1, parts_bits, parts_order = \
         [sub_block], [index], [index + 1], [bits], [np.full(len(sub_block), len(chunks) + 1)]
     for lv, chunk in enumerate(chunks, start=1):
         bits[chunk[sub_block] > 1] &= np.int8(ALL_LEVELS & ~(1 << lv))
-        n_chunks = np.where(chunk > 1, -(-count // np.maximum(chunk, 1)), 0)
-        ch_block = np.repeat(blocks, n_chunks)
-        c = np.arange(len(ch_block)) - np.repeat(np.cumsum(n_chunks) - n_chunks, n_chunks)
+        ch_block, c = _spans(blocks, np.where(chunk > 1, -(-count // chunk), 0))
         size = chunk[ch_block]
         parts_block.append(ch_block)
         parts_j0.append(c * size)
@@ -436,9 +433,9 @@ def program_moves(
         ``program.start``.
     level_reach : tuple of float
         Reach of the tool's primitives of level ``1, 2, ...`` (``ToolShape.level_reach``,
-        0: none): on a turning block whose sub-moves for that reach are at least twice
-        as long, that level is swept along chunks of the sub-moves (module doc). Empty:
-        the whole tool on every sub-move.
+        0: none): on a turning block level ``l`` is swept along chunks of up to ``2**l``
+        sub-moves that keep ``tolerance`` for that reach (module doc). Empty: the whole
+        tool on every sub-move.
 
     Returns
     -------
